@@ -1,0 +1,113 @@
+//! `meshlod info FILE [--json]`.
+
+use anyhow::Result;
+use meshlod::io::{read_scene, Format};
+use meshlod::mesh::MeshStats;
+use serde::Serialize;
+use std::path::PathBuf;
+
+/// Arguments of `meshlod info`.
+#[derive(Debug, clap::Args)]
+pub struct InfoArgs {
+    /// Mesh file (.obj .ply .stl .off .gltf .glb .m).
+    pub file: PathBuf,
+    /// Print one JSON object instead of text.
+    #[arg(long)]
+    pub json: bool,
+}
+
+#[derive(Serialize)]
+struct InfoReport<'a> {
+    file: String,
+    format: &'static str,
+    parts: usize,
+    instances: usize,
+    #[serde(flatten)]
+    stats: &'a MeshStats,
+}
+
+/// Reads the file, measures it, prints the report.
+///
+/// # Errors
+/// The file cannot be read or parsed.
+pub fn run(args: &InfoArgs) -> Result<()> {
+    let scene = read_scene(&args.file)?;
+    let mesh = scene.flatten();
+    let stats = MeshStats::of(&mesh);
+    let format = Format::from_path(&args.file).map_or("?", Format::name);
+    let report = InfoReport {
+        file: args.file.display().to_string(),
+        format,
+        parts: scene.parts.len(),
+        instances: scene.parts.iter().map(|p| p.instances.len()).sum(),
+        stats: &stats,
+    };
+    if args.json {
+        println!("{}", serde_json::to_string(&report)?);
+        return Ok(());
+    }
+    let t = &stats.topology;
+    println!("{}  ({format})", report.file);
+    if report.parts > 1 || report.instances != report.parts {
+        println!(
+            "  scene           {} meshes, {} instances (counts below are per instance)",
+            report.parts, report.instances
+        );
+    }
+    println!("  vertices        {}", stats.vertices);
+    println!("  triangles       {}", stats.triangles);
+    let attrs: Vec<String> = stats
+        .attributes
+        .iter()
+        .map(|a| {
+            serde_json::to_value(a)
+                .map_or_else(|_| "?".into(), |v| v.as_str().unwrap_or("?").to_string())
+        })
+        .collect();
+    println!(
+        "  attributes      {}",
+        if attrs.is_empty() {
+            "none".to_string()
+        } else {
+            attrs.join(", ")
+        }
+    );
+    println!("  groups          {}", stats.groups);
+    match (stats.bbox_min, stats.bbox_max) {
+        (Some(lo), Some(hi)) => println!(
+            "  bounding box    ({}, {}, {}) .. ({}, {}, {}), diagonal {:.6}",
+            lo[0], lo[1], lo[2], hi[0], hi[1], hi[2], stats.bbox_diagonal
+        ),
+        _ => println!("  bounding box    empty"),
+    }
+    println!(
+        "  welded vertices {} ({} duplicate positions)",
+        t.welded_vertices, stats.duplicate_positions
+    );
+    println!("  edges           {}", t.edges);
+    println!(
+        "  boundary        {} edges in {} loops",
+        t.boundary_edges, t.boundary_loops
+    );
+    println!(
+        "  non-manifold    {} edges, {} vertices",
+        t.non_manifold_edges, t.non_manifold_vertices
+    );
+    println!("  components      {}", t.components);
+    match t.genus {
+        Some(g) => println!(
+            "  euler / genus   {} / {g} (closed manifold)",
+            t.euler_characteristic
+        ),
+        None => println!(
+            "  euler / genus   {} / - (not a closed manifold)",
+            t.euler_characteristic
+        ),
+    }
+    println!(
+        "  degenerate      {} triangles; duplicate {} triangles",
+        t.degenerate_triangles, t.duplicate_triangles
+    );
+    println!("  unreferenced    {} vertices", stats.unreferenced_vertices);
+    Ok(())
+}

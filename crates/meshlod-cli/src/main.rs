@@ -1,0 +1,38 @@
+//! `meshlod`: mesh simplification and level of detail from the command line.
+//!
+//! Arguments are parsed by clap into [`Cli`], then each subcommand resolves them into
+//! the library's options and runs. Errors carry the file name and are printed by
+//! `anyhow`; the exit status is non-zero on any error.
+
+mod info;
+
+use clap::{Parser, Subcommand};
+use std::process::ExitCode;
+
+/// Mesh simplification and level of detail.
+#[derive(Debug, Parser)]
+#[command(name = "meshlod", version, about, long_about = None)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Debug, Subcommand)]
+enum Command {
+    /// Print counts, attributes, bounding box and topology of a mesh file.
+    Info(info::InfoArgs),
+}
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    let result = match cli.command {
+        Command::Info(args) => info::run(&args),
+    };
+    match result {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("meshlod: error: {e:#}");
+            ExitCode::FAILURE
+        }
+    }
+}

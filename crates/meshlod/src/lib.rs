@@ -1,0 +1,17 @@
+//! # meshlod
+//!
+//! Mesh simplification (decimation) and level of detail, in one toolkit: quadric error
+//! metrics (Garland & Heckbert 1997), Melax edge-cost half-edge collapse and progressive
+//! meshes (Hoppe 1996), Schroeder vertex decimation (Schroeder, Zarge & Lorensen 1992),
+//! vertex clustering (Rossignac & Borrel 1993; Lindstrom 2000), and Metro-class error
+//! measurement (Cignoni, Rocchini & Scopigno 1998).
+//!
+//! The crate is organised by domain nouns:
+//! - [`mesh`]: the in-memory [`Mesh`], welding, connectivity, statistics;
+//! - [`io`]: OBJ, PLY, STL, OFF, glTF/GLB and Hoppe `.m` readers and writers.
+
+pub mod io;
+pub mod mesh;
+
+pub use io::{read_mesh, read_scene, write_mesh, write_scene, Scene};
+pub use mesh::{Mesh, MeshStats};

@@ -1,0 +1,537 @@
+//! The in-memory triangle mesh every method in meshlod works on.
+//!
+//! A [`Mesh`] is an indexed triangle list. Vertices are *wedges*: a vertex carries a
+//! position and, optionally, attributes (normal, tangent, two UV sets, colour, skinning).
+//! Two wedges may share a position (a UV or normal seam); topology is computed on
+//! positions welded by exact equality ([`weld`]), so a seam is not a hole.
+//!
+//! Per-triangle group ids ([`Mesh::groups`]) carry materials (`usemtl` in OBJ, the
+//! primitive's material in glTF). Group names live in [`Mesh::group_names`].
+//!
+//! Layout follows the data-oriented style of meshoptimizer: dense `u32` ids, flat
+//! `Vec`s, no per-element objects.
+
+pub mod stats;
+pub mod topology;
+pub mod weld;
+
+pub use stats::{MeshStats, TopologyStats};
+pub use topology::{Topology, VertexKind};
+pub use weld::Weld;
+
+use thiserror::Error;
+
+/// Per-vertex attribute streams. Every present stream has one entry per vertex
+/// (the length of [`Mesh::positions`]).
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct VertexAttributes {
+    /// Unit normals (not required to be normalised on input).
+    pub normals: Option<Vec<[f32; 3]>>,
+    /// glTF tangents: xyz direction and w = ±1 handedness.
+    pub tangents: Option<Vec<[f32; 4]>>,
+    /// First texture coordinate set (glTF `TEXCOORD_0`, OBJ `vt`, PLY `u v`).
+    pub uv0: Option<Vec<[f32; 2]>>,
+    /// Second texture coordinate set (glTF `TEXCOORD_1`).
+    pub uv1: Option<Vec<[f32; 2]>>,
+    /// Linear RGBA colours in `[0, 1]` (PLY `red green blue alpha`, glTF `COLOR_0`).
+    pub colors: Option<Vec<[f32; 4]>>,
+    /// glTF `JOINTS_0`: four joint indices into the skin.
+    pub joints: Option<Vec<[u16; 4]>>,
+    /// glTF `WEIGHTS_0`: four skin weights, summing to one.
+    pub weights: Option<Vec<[f32; 4]>>,
+}
+
+/// Names of the attribute streams, for reports and messages.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, serde::Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum AttributeKind {
+    /// [`VertexAttributes::normals`]
+    Normal,
+    /// [`VertexAttributes::tangents`]
+    Tangent,
+    /// [`VertexAttributes::uv0`]
+    Uv0,
+    /// [`VertexAttributes::uv1`]
+    Uv1,
+    /// [`VertexAttributes::colors`]
+    Color,
+    /// [`VertexAttributes::joints`]
+    Joints,
+    /// [`VertexAttributes::weights`]
+    Weights,
+}
+
+impl VertexAttributes {
+    /// Which streams are present, in a fixed order.
+    #[must_use]
+    pub fn kinds(&self) -> Vec<AttributeKind> {
+        let mut k = Vec::new();
+        if self.normals.is_some() {
+            k.push(AttributeKind::Normal);
+        }
+        if self.tangents.is_some() {
+            k.push(AttributeKind::Tangent);
+        }
+        if self.uv0.is_some() {
+            k.push(AttributeKind::Uv0);
+        }
+        if self.uv1.is_some() {
+            k.push(AttributeKind::Uv1);
+        }
+        if self.colors.is_some() {
+            k.push(AttributeKind::Color);
+        }
+        if self.joints.is_some() {
+            k.push(AttributeKind::Joints);
+        }
+        if self.weights.is_some() {
+            k.push(AttributeKind::Weights);
+        }
+        k
+    }
+
+    /// True when no stream is present.
+    #[must_use]
+    pub fn is_empty(&self) -> bool {
+        self.kinds().is_empty()
+    }
+
+    /// Gathers every stream through `map`: output vertex `i` takes input vertex `map[i]`.
+    ///
+    /// # Panics
+    /// Panics if an entry of `map` is out of range for a present stream.
+    #[must_use]
+    pub fn gather(&self, map: &[u32]) -> Self {
+        fn g<T: Copy>(s: &Option<Vec<T>>, map: &[u32]) -> Option<Vec<T>> {
+            s.as_ref()
+                .map(|v| map.iter().map(|&i| v[i as usize]).collect())
+        }
+        Self {
+            normals: g(&self.normals, map),
+            tangents: g(&self.tangents, map),
+            uv0: g(&self.uv0, map),
+            uv1: g(&self.uv1, map),
+            colors: g(&self.colors, map),
+            joints: g(&self.joints, map),
+            weights: g(&self.weights, map),
+        }
+    }
+
+    /// Appends `other`'s streams after `self`'s, where `self` holds `n_self` vertices
+    /// and `other` `n_other`. A stream present on only one side is filled with a
+    /// neutral value on the other (zero normal, zero UV, white, joint 0 with weight 1).
+    pub fn append(&mut self, n_self: usize, other: &Self, n_other: usize) {
+        fn a<T: Copy>(
+            s: &mut Option<Vec<T>>,
+            n_self: usize,
+            o: &Option<Vec<T>>,
+            n_other: usize,
+            fill: T,
+        ) {
+            match (s.as_mut(), o) {
+                (None, None) => {}
+                (Some(v), Some(w)) => v.extend_from_slice(w),
+                (Some(v), None) => v.extend(std::iter::repeat_n(fill, n_other)),
+                (None, Some(w)) => {
+                    let mut v = vec![fill; n_self];
+                    v.extend_from_slice(w);
+                    *s = Some(v);
+                }
+            }
+        }
+        a(&mut self.normals, n_self, &other.normals, n_other, [0.0; 3]);
+        a(
+            &mut self.tangents,
+            n_self,
+            &other.tangents,
+            n_other,
+            [1.0, 0.0, 0.0, 1.0],
+        );
+        a(&mut self.uv0, n_self, &other.uv0, n_other, [0.0; 2]);
+        a(&mut self.uv1, n_self, &other.uv1, n_other, [0.0; 2]);
+        a(&mut self.colors, n_self, &other.colors, n_other, [1.0; 4]);
+        a(&mut self.joints, n_self, &other.joints, n_other, [0; 4]);
+        a(
+            &mut self.weights,
+            n_self,
+            &other.weights,
+            n_other,
+            [1.0, 0.0, 0.0, 0.0],
+        );
+    }
+
+    /// Checks that every present stream has `n` entries.
+    ///
+    /// # Errors
+    /// [`MeshError::AttributeLength`] naming the first stream of the wrong length.
+    pub fn check_len(&self, n: usize) -> Result<(), MeshError> {
+        let lens = [
+            (AttributeKind::Normal, self.normals.as_ref().map(Vec::len)),
+            (AttributeKind::Tangent, self.tangents.as_ref().map(Vec::len)),
+            (AttributeKind::Uv0, self.uv0.as_ref().map(Vec::len)),
+            (AttributeKind::Uv1, self.uv1.as_ref().map(Vec::len)),
+            (AttributeKind::Color, self.colors.as_ref().map(Vec::len)),
+            (AttributeKind::Joints, self.joints.as_ref().map(Vec::len)),
+            (AttributeKind::Weights, self.weights.as_ref().map(Vec::len)),
+        ];
+        for (kind, len) in lens {
+            if let Some(len) = len {
+                if len != n {
+                    return Err(MeshError::AttributeLength {
+                        kind,
+                        len,
+                        vertices: n,
+                    });
+                }
+            }
+        }
+        Ok(())
+    }
+}
+
+/// An indexed triangle mesh with optional per-vertex attributes and per-triangle groups.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Mesh {
+    /// Vertex positions, in the file's units.
+    pub positions: Vec<[f32; 3]>,
+    /// Triangles as three vertex indices, counter-clockwise seen from the front.
+    pub triangles: Vec<[u32; 3]>,
+    /// Optional per-vertex attributes, each stream as long as `positions`.
+    pub attributes: VertexAttributes,
+    /// Optional per-triangle group (material) id, as long as `triangles`.
+    pub groups: Option<Vec<u32>>,
+    /// Names of the groups (materials), indexed by group id. May be shorter than the
+    /// largest id (unnamed groups).
+    pub group_names: Vec<String>,
+}
+
+/// Errors from [`Mesh::validate`] and other structural checks.
+#[derive(Debug, Clone, PartialEq, Error)]
+pub enum MeshError {
+    /// A triangle refers to a vertex that does not exist.
+    #[error("triangle {triangle} refers to vertex {index}, but the mesh has {vertices} vertices")]
+    IndexOutOfRange {
+        /// Triangle number (0-based).
+        triangle: usize,
+        /// The offending index.
+        index: u32,
+        /// Number of vertices.
+        vertices: usize,
+    },
+    /// A position coordinate is NaN or infinite.
+    #[error("vertex {vertex} has a non-finite coordinate {value}")]
+    NonFinite {
+        /// Vertex number (0-based).
+        vertex: usize,
+        /// The offending value.
+        value: f32,
+    },
+    /// An attribute stream does not have one entry per vertex.
+    #[error("attribute {kind:?} has {len} entries for {vertices} vertices")]
+    AttributeLength {
+        /// The stream.
+        kind: AttributeKind,
+        /// Its length.
+        len: usize,
+        /// Number of vertices.
+        vertices: usize,
+    },
+    /// The group stream does not have one entry per triangle.
+    #[error("group stream has {len} entries for {triangles} triangles")]
+    GroupLength {
+        /// Its length.
+        len: usize,
+        /// Number of triangles.
+        triangles: usize,
+    },
+    /// More vertices than a `u32` index can address.
+    #[error("{vertices} vertices is more than 32-bit indices can address")]
+    TooManyVertices {
+        /// Number of vertices.
+        vertices: usize,
+    },
+}
+
+impl Mesh {
+    /// A mesh from positions and triangles, without attributes.
+    #[must_use]
+    pub fn from_triangles(positions: Vec<[f32; 3]>, triangles: Vec<[u32; 3]>) -> Self {
+        Self {
+            positions,
+            triangles,
+            ..Self::default()
+        }
+    }
+
+    /// Number of vertices (wedges).
+    #[must_use]
+    pub fn vertex_count(&self) -> usize {
+        self.positions.len()
+    }
+
+    /// Number of triangles.
+    #[must_use]
+    pub fn triangle_count(&self) -> usize {
+        self.triangles.len()
+    }
+
+    /// True when the mesh has no triangles.
+    #[must_use]
+    pub fn is_empty(&self) -> bool {
+        self.triangles.is_empty()
+    }
+
+    /// Group id of triangle `t` (0 when the mesh has no groups).
+    #[must_use]
+    pub fn group(&self, t: usize) -> u32 {
+        self.groups.as_ref().map_or(0, |g| g[t])
+    }
+
+    /// Checks the structural invariants: indices in range, finite positions, attribute
+    /// and group streams of the right length, vertex count addressable by `u32`.
+    ///
+    /// # Errors
+    /// The first violated invariant, as a [`MeshError`] naming the element.
+    pub fn validate(&self) -> Result<(), MeshError> {
+        let n = self.positions.len();
+        if u32::try_from(n).is_err() {
+            return Err(MeshError::TooManyVertices { vertices: n });
+        }
+        for (vertex, p) in self.positions.iter().enumerate() {
+            for &value in p {
+                if !value.is_finite() {
+                    return Err(MeshError::NonFinite { vertex, value });
+                }
+            }
+        }
+        for (triangle, t) in self.triangles.iter().enumerate() {
+            for &index in t {
+                if index as usize >= n {
+                    return Err(MeshError::IndexOutOfRange {
+                        triangle,
+                        index,
+                        vertices: n,
+                    });
+                }
+            }
+        }
+        self.attributes.check_len(n)?;
+        if let Some(g) = &self.groups {
+            if g.len() != self.triangles.len() {
+                return Err(MeshError::GroupLength {
+                    len: g.len(),
+                    triangles: self.triangles.len(),
+                });
+            }
+        }
+        Ok(())
+    }
+
+    /// Axis-aligned bounding box `(min, max)` of the vertices referenced by triangles,
+    /// or of all vertices when `referenced_only` is false. `None` when there is nothing.
+    #[must_use]
+    pub fn bounding_box(&self, referenced_only: bool) -> Option<([f32; 3], [f32; 3])> {
+        let mut lo = [f32::INFINITY; 3];
+        let mut hi = [f32::NEG_INFINITY; 3];
+        let mut any = false;
+        let mut add = |p: &[f32; 3]| {
+            any = true;
+            for k in 0..3 {
+                lo[k] = lo[k].min(p[k]);
+                hi[k] = hi[k].max(p[k]);
+            }
+        };
+        if referenced_only {
+            for t in &self.triangles {
+                for &i in t {
+                    add(&self.positions[i as usize]);
+                }
+            }
+        } else {
+            self.positions.iter().for_each(&mut add);
+        }
+        any.then_some((lo, hi))
+    }
+
+    /// Length of the bounding-box diagonal of all vertices (0 for an empty mesh), in
+    /// the mesh's units. This is the scale relative errors are measured against.
+    #[must_use]
+    pub fn bbox_diagonal(&self) -> f64 {
+        self.bounding_box(false).map_or(0.0, |(lo, hi)| {
+            (0..3)
+                .map(|k| {
+                    let d = f64::from(hi[k]) - f64::from(lo[k]);
+                    d * d
+                })
+                .sum::<f64>()
+                .sqrt()
+        })
+    }
+
+    /// Appends `other` (its vertices, triangles, attributes and groups; group ids are
+    /// offset by `group_offset`).
+    pub fn append(&mut self, other: &Mesh, group_offset: u32) {
+        let base = u32::try_from(self.positions.len()).expect("vertex count fits u32");
+        let n_self = self.positions.len();
+        let t_self = self.triangles.len();
+        self.attributes
+            .append(n_self, &other.attributes, other.positions.len());
+        self.positions.extend_from_slice(&other.positions);
+        self.triangles.extend(
+            other
+                .triangles
+                .iter()
+                .map(|t| [t[0] + base, t[1] + base, t[2] + base]),
+        );
+        if self.groups.is_some() || other.groups.is_some() || group_offset != 0 {
+            let g = self.groups.get_or_insert_with(|| vec![0; t_self]);
+            match &other.groups {
+                Some(o) => g.extend(o.iter().map(|&x| x + group_offset)),
+                None => g.extend(std::iter::repeat_n(group_offset, other.triangles.len())),
+            }
+        }
+    }
+
+    /// Removes vertices no triangle refers to and renumbers the rest in first-use order.
+    /// Returns, for each output vertex, the input vertex it came from.
+    pub fn compact_vertices(&mut self) -> Vec<u32> {
+        let n = self.positions.len();
+        let mut remap = vec![u32::MAX; n];
+        let mut order = Vec::with_capacity(n);
+        for t in &mut self.triangles {
+            for i in t.iter_mut() {
+                let r = &mut remap[*i as usize];
+                if *r == u32::MAX {
+                    *r = order.len() as u32;
+                    order.push(*i);
+                }
+                *i = *r;
+            }
+        }
+        self.positions = order.iter().map(|&i| self.positions[i as usize]).collect();
+        self.attributes = self.attributes.gather(&order);
+        order
+    }
+
+    /// Transforms positions by the column-major 4×4 affine matrix `m` (glTF layout);
+    /// normals and tangents by its inverse transpose, renormalised. A matrix with a
+    /// negative determinant also flips triangle winding so fronts stay fronts.
+    pub fn transform(&mut self, m: &[[f32; 4]; 4]) {
+        let a = |r: usize, c: usize| f64::from(m[c][r]);
+        for p in &mut self.positions {
+            let v = [f64::from(p[0]), f64::from(p[1]), f64::from(p[2])];
+            for (r, out) in p.iter_mut().enumerate() {
+                *out = (a(r, 0) * v[0] + a(r, 1) * v[1] + a(r, 2) * v[2] + a(r, 3)) as f32;
+            }
+        }
+        // 3x3 linear part, its cofactor matrix = det * inverse transpose.
+        let l = [
+            [a(0, 0), a(0, 1), a(0, 2)],
+            [a(1, 0), a(1, 1), a(1, 2)],
+            [a(2, 0), a(2, 1), a(2, 2)],
+        ];
+        let cof = |r: usize, c: usize| {
+            let (r1, r2) = ((r + 1) % 3, (r + 2) % 3);
+            let (c1, c2) = ((c + 1) % 3, (c + 2) % 3);
+            l[r1][c1] * l[r2][c2] - l[r1][c2] * l[r2][c1]
+        };
+        let det = l[0][0] * cof(0, 0) + l[0][1] * cof(0, 1) + l[0][2] * cof(0, 2);
+        let sign = if det < 0.0 { -1.0 } else { 1.0 };
+        let normalise = |v: [f64; 3]| {
+            let len = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
+            if len > 0.0 {
+                [
+                    (v[0] / len) as f32,
+                    (v[1] / len) as f32,
+                    (v[2] / len) as f32,
+                ]
+            } else {
+                [0.0; 3]
+            }
+        };
+        if let Some(ns) = &mut self.attributes.normals {
+            for n in ns.iter_mut() {
+                let v = [f64::from(n[0]), f64::from(n[1]), f64::from(n[2])];
+                let w = [
+                    sign * (cof(0, 0) * v[0] + cof(0, 1) * v[1] + cof(0, 2) * v[2]),
+                    sign * (cof(1, 0) * v[0] + cof(1, 1) * v[1] + cof(1, 2) * v[2]),
+                    sign * (cof(2, 0) * v[0] + cof(2, 1) * v[1] + cof(2, 2) * v[2]),
+                ];
+                *n = normalise(w);
+            }
+        }
+        if let Some(ts) = &mut self.attributes.tangents {
+            for t in ts.iter_mut() {
+                let v = [f64::from(t[0]), f64::from(t[1]), f64::from(t[2])];
+                let w = [
+                    l[0][0] * v[0] + l[0][1] * v[1] + l[0][2] * v[2],
+                    l[1][0] * v[0] + l[1][1] * v[1] + l[1][2] * v[2],
+                    l[2][0] * v[0] + l[2][1] * v[1] + l[2][2] * v[2],
+                ];
+                let n = normalise(w);
+                *t = [n[0], n[1], n[2], t[3]];
+            }
+        }
+        if det < 0.0 {
+            for t in &mut self.triangles {
+                t.swap(1, 2);
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn validate_catches_bad_index_and_nan() {
+        let mut m = Mesh::from_triangles(vec![[0.0; 3], [1.0, 0.0, 0.0]], vec![[0, 1, 2]]);
+        assert!(matches!(
+            m.validate(),
+            Err(MeshError::IndexOutOfRange { index: 2, .. })
+        ));
+        m.positions.push([0.0, f32::NAN, 0.0]);
+        assert!(matches!(
+            m.validate(),
+            Err(MeshError::NonFinite { vertex: 2, .. })
+        ));
+        m.positions[2] = [0.0, 1.0, 0.0];
+        assert_eq!(m.validate(), Ok(()));
+    }
+
+    #[test]
+    fn compact_drops_unreferenced() {
+        let mut m = Mesh::from_triangles(
+            vec![[9.0; 3], [0.0; 3], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]],
+            vec![[1, 2, 3]],
+        );
+        m.attributes.uv0 = Some(vec![[9.0; 2], [0.0; 2], [1.0, 0.0], [0.0, 1.0]]);
+        let order = m.compact_vertices();
+        assert_eq!(order, vec![1, 2, 3]);
+        assert_eq!(m.positions.len(), 3);
+        assert_eq!(m.triangles, vec![[0, 1, 2]]);
+        assert_eq!(m.attributes.uv0.as_ref().unwrap()[1], [1.0, 0.0]);
+    }
+
+    #[test]
+    fn mirror_transform_flips_winding_and_normals() {
+        let mut m = Mesh::from_triangles(
+            vec![[0.0; 3], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]],
+            vec![[0, 1, 2]],
+        );
+        m.attributes.normals = Some(vec![[0.0, 0.0, 1.0]; 3]);
+        // Mirror in x, translate by 2 in z (column-major).
+        let mat = [
+            [-1.0, 0.0, 0.0, 0.0],
+            [0.0, 1.0, 0.0, 0.0],
+            [0.0, 0.0, 1.0, 0.0],
+            [0.0, 0.0, 2.0, 1.0],
+        ];
+        m.transform(&mat);
+        assert_eq!(m.positions[1], [-1.0, 0.0, 2.0]);
+        assert_eq!(m.triangles[0], [0, 2, 1]);
+        // The geometric normal of (0,2,1) after mirroring is still +z.
+        assert_eq!(m.attributes.normals.as_ref().unwrap()[0], [0.0, 0.0, 1.0]);
+    }
+}

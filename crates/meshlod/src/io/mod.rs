@@ -305,6 +305,9 @@ pub fn read_scene_from_bytes(
     format: Format,
     base_dir: Option<&Path>,
 ) -> Result<Scene, ReadError> {
+    if data.is_empty() {
+        return Err(FormatError::new(Location::File, "file is empty (0 bytes)").into());
+    }
     let scene = match format {
         Format::Obj => obj::read(data)?,
         Format::Ply => Scene::from_mesh(ply::read(data)?),

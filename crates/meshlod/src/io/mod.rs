@@ -257,16 +257,10 @@ impl Scene {
 }
 
 /// Options for writers.
-#[derive(Debug, Clone, PartialEq, Eq)]
+#[derive(Debug, Clone, PartialEq, Eq, Default)]
 pub struct WriteOptions {
     /// Write PLY and STL as text instead of binary. Default: false (binary).
     pub ascii: bool,
-}
-
-impl Default for WriteOptions {
-    fn default() -> Self {
-        Self { ascii: false }
-    }
 }
 
 impl WriteOptions {

@@ -12,6 +12,7 @@
 //! `Vec`s, no per-element objects.
 
 pub mod stats;
+pub mod subdivide;
 pub mod topology;
 pub mod weld;
 

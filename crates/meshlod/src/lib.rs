@@ -9,9 +9,11 @@
 //! The crate is organised by domain nouns:
 //! - [`mesh`]: the in-memory [`Mesh`], welding, connectivity, statistics;
 //! - [`io`]: OBJ, PLY, STL, OFF, glTF/GLB and Hoppe `.m` readers and writers.
+//! - [`metrics`]: closest points (BVH), Hausdorff / mean / RMS distances, screen-space error.
 
 pub mod io;
 pub mod mesh;
+pub mod metrics;
 
 pub use io::{read_mesh, read_scene, write_mesh, write_scene, Scene};
 pub use mesh::{Mesh, MeshStats};

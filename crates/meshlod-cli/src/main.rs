@@ -4,7 +4,9 @@
 //! the library's options and runs. Errors carry the file name and are printed by
 //! `anyhow`; the exit status is non-zero on any error.
 
+mod heatmap;
 mod info;
+mod measure;
 
 use clap::{Parser, Subcommand};
 use std::process::ExitCode;
@@ -21,12 +23,16 @@ struct Cli {
 enum Command {
     /// Print counts, attributes, bounding box and topology of a mesh file.
     Info(info::InfoArgs),
+    /// Measure the distance between two meshes: one-sided and symmetric Hausdorff,
+    /// mean and RMS (Metro-style vertex + edge + face sampling).
+    Measure(measure::MeasureArgs),
 }
 
 fn main() -> ExitCode {
     let cli = Cli::parse();
     let result = match cli.command {
         Command::Info(args) => info::run(&args),
+        Command::Measure(args) => measure::run(&args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -13,13 +13,21 @@
 //! ```
 //!
 //! - Vertex ids are arbitrary positive integers; vertices become dense indices in
-//!   order of appearance. A face must refer to vertices defined on earlier lines.
-//!   Faces are polygons, fan-triangulated around their first vertex; face ids and face
-//!   attributes are ignored.
+//!   order of appearance. A face must refer to vertices defined on earlier lines, a
+//!   corner to a vertex and a face defined earlier. Faces are polygons,
+//!   fan-triangulated around their first vertex; face attributes are ignored.
 //! - Vertex attributes `normal=(x y z)`, `uv=(u v)` and `rgb=(r g b)` become normals,
-//!   UVs and (opaque) colours — each only when *every* vertex has it. Other keys are
-//!   skipped.
-//! - `Corner` (per-corner attributes), `Edge` and unknown lines are skipped.
+//!   UVs and (opaque) colours. An attribute is kept when every vertex that a face uses
+//!   has it (the others get a zero normal, zero UV or white); otherwise it is dropped.
+//!   Other keys are skipped.
+//! - `Corner v f {normal=(x y z)}` gives the normal of vertex `v` in face `f` (sharp
+//!   edges: `cessna.orig.m` stores the normals of its crease vertices this way). A
+//!   corner without its own normal takes its vertex's. When every corner has a normal,
+//!   the mesh has normals: vertex `i` is `Vertex` line `i` with the normal of its
+//!   first corner (its own normal when no face uses it), and corners with another normal
+//!   become extra vertices after all `Vertex` lines, one per distinct normal. Other
+//!   corner attributes are ignored.
+//! - `Edge` and unknown lines are skipped.
 //!
 //! The writer emits `Vertex` lines numbered from 1 with `normal=`, `uv=` and `rgb=`
 //! for the attributes present, and one `Face` per triangle; numbers are printed in their
@@ -37,128 +45,326 @@ use crate::mesh::{Mesh, VertexAttributes};
 /// [`FormatError`] at the [`Location::Line`] that is wrong: a malformed or NaN/infinite
 /// number, a vertex id that is not a positive integer or is defined twice, a
 /// `Vertex` line without three coordinates, an attribute with the wrong number of
-/// values, an unclosed `(` or `{`, a face with fewer than three vertices or referring
-/// to an undefined vertex id. A file without vertices is refused ([`Location::File`]).
+/// values, an unclosed `{`, a face with fewer than three vertices or referring to an
+/// undefined vertex id, a corner whose vertex or face is undefined (or whose face id
+/// is used twice) or whose vertex is not on its face. A file without vertices is
+/// refused ([`Location::File`]).
 pub fn read(data: &[u8]) -> Result<Mesh, FormatError> {
-    let mut index_of: FastMap<u64, u32> = FastMap::default();
-    let mut positions: Vec<[f32; 3]> = Vec::new();
-    let mut normals: Vec<[f32; 3]> = Vec::new();
-    let mut uvs: Vec<[f32; 2]> = Vec::new();
-    let mut colors: Vec<[f32; 4]> = Vec::new();
-    let (mut with_normal, mut with_uv, mut with_rgb) = (0usize, 0usize, 0usize);
-    let mut triangles: Vec<[u32; 3]> = Vec::new();
-    let mut corners: Vec<u32> = Vec::new();
+    let mut r = Reader::default();
     let mut lines = Lines::new(data);
     while let Some(line) = lines.next() {
         let ln = lines.line_number();
         let keyword = tokens(line).next();
-        if !matches!(keyword, Some(b"Vertex" | b"Face")) {
-            // Comments, blank lines, Corner, Edge and anything else.
+        if !matches!(keyword, Some(b"Vertex" | b"Face" | b"Corner")) {
+            // Comments, blank lines, Edge and anything else.
             continue;
         }
         let (head, braces) = split_braces(line, ln)?;
         let mut toks = tokens(head).skip(1);
         match keyword {
-            Some(b"Vertex") => {
-                let id_token = toks.next().unwrap_or_default();
-                let id = parse_id(id_token, ln)?;
-                let mut xyz = [0f32; 3];
-                let n = parse_floats(&mut toks, ln, "vertex coordinate", &mut xyz)?;
-                if n != 3 || toks.next().is_some() {
-                    return Err(FormatError::new(
-                        Location::Line(ln),
-                        format!("'Vertex {id}' needs exactly three coordinates"),
-                    ));
-                }
-                let index = positions.len() as u32;
-                if index == u32::MAX {
-                    return Err(FormatError::new(
-                        Location::Line(ln),
-                        "more vertices than 32-bit indices can address",
-                    ));
-                }
-                if index_of.insert(id, index).is_some() {
-                    return Err(FormatError::new(
-                        Location::Line(ln),
-                        format!("vertex id {id} is defined twice"),
-                    ));
-                }
-                positions.push(xyz);
-                let (mut normal, mut uv, mut rgb) = (None, None, None);
-                for (key, value) in Attributes::new(braces) {
-                    match key {
-                        b"normal" => normal = Some(attr_values::<3>(value, ln, "normal")?),
-                        b"uv" => uv = Some(attr_values::<2>(value, ln, "uv")?),
-                        b"rgb" => rgb = Some(attr_values::<3>(value, ln, "rgb")?),
-                        _ => {}
-                    }
-                }
-                with_normal += usize::from(normal.is_some());
-                with_uv += usize::from(uv.is_some());
-                with_rgb += usize::from(rgb.is_some());
-                normals.push(normal.unwrap_or_default());
-                uvs.push(uv.unwrap_or_default());
-                let [r, g, b] = rgb.unwrap_or([1.0; 3]);
-                colors.push([r, g, b, 1.0]);
-            }
-            Some(b"Face") => {
-                let id_token = toks.next().unwrap_or_default();
-                parse_i64(id_token, ln, "the face id")?;
-                corners.clear();
-                for t in toks {
-                    let id = parse_i64(t, ln, "a vertex id")?;
-                    let found = u64::try_from(id)
-                        .ok()
-                        .and_then(|id| index_of.get(&id).copied());
-                    match found {
-                        Some(i) => corners.push(i),
-                        None => {
-                            return Err(FormatError::new(
-                                Location::Line(ln),
-                                format!("face refers to vertex id {id}, which is not defined"),
-                            ))
-                        }
-                    }
-                }
-                if corners.len() < 3 {
-                    return Err(FormatError::new(
-                        Location::Line(ln),
-                        format!(
-                            "a face needs at least 3 vertices, this one has {}",
-                            corners.len()
-                        ),
-                    ));
-                }
-                if let Some((&a, rest)) = corners.split_first() {
-                    for pair in rest.windows(2) {
-                        if let [b, c] = *pair {
-                            triangles.push([a, b, c]);
-                        }
-                    }
-                }
-            }
-            _ => {}
+            Some(b"Vertex") => r.vertex(&mut toks, braces, ln)?,
+            Some(b"Face") => r.face(&mut toks, ln)?,
+            _ => r.corner(&mut toks, braces, ln)?,
         }
     }
-    if positions.is_empty() {
-        return Err(FormatError::new(
-            Location::File,
-            "no 'Vertex' lines: empty or not a Hoppe .m file",
-        ));
+    r.finish()
+}
+
+/// Face id whose number is used by more than one face.
+const AMBIGUOUS: u32 = u32::MAX;
+
+/// Reader state.
+#[derive(Default)]
+struct Reader {
+    index_of: FastMap<u64, u32>,
+    positions: Vec<[f32; 3]>,
+    normals: Vec<[f32; 3]>,
+    uvs: Vec<[f32; 2]>,
+    colors: Vec<[f32; 4]>,
+    has_normal: Vec<bool>,
+    has_uv: Vec<bool>,
+    has_rgb: Vec<bool>,
+    /// Polygon corners (vertex indices), polygon `p` ending at `poly_end[p]`.
+    poly_verts: Vec<u32>,
+    poly_end: Vec<usize>,
+    /// Face id → polygon, or [`AMBIGUOUS`].
+    face_of_id: FastMap<i64, u32>,
+    /// `(vertex, polygon)` → the corner's normal.
+    corner_normals: FastMap<(u32, u32), [f32; 3]>,
+}
+
+impl Reader {
+    fn vertex<'a>(
+        &mut self,
+        toks: &mut impl Iterator<Item = &'a [u8]>,
+        braces: &[u8],
+        ln: u64,
+    ) -> Result<(), FormatError> {
+        let id = parse_id(toks.next().unwrap_or_default(), ln)?;
+        let mut xyz = [0f32; 3];
+        let n = parse_floats(toks, ln, "vertex coordinate", &mut xyz)?;
+        if n != 3 || toks.next().is_some() {
+            return Err(FormatError::new(
+                Location::Line(ln),
+                format!("'Vertex {id}' needs exactly three coordinates"),
+            ));
+        }
+        let index = self.positions.len() as u32;
+        if index == u32::MAX {
+            return Err(FormatError::new(
+                Location::Line(ln),
+                "more vertices than 32-bit indices can address",
+            ));
+        }
+        if self.index_of.insert(id, index).is_some() {
+            return Err(FormatError::new(
+                Location::Line(ln),
+                format!("vertex id {id} is defined twice"),
+            ));
+        }
+        let (mut normal, mut uv, mut rgb) = (None, None, None);
+        for (key, value) in Attributes::new(braces) {
+            match key {
+                b"normal" => normal = Some(attr_values::<3>(value, ln, "normal")?),
+                b"uv" => uv = Some(attr_values::<2>(value, ln, "uv")?),
+                b"rgb" => rgb = Some(attr_values::<3>(value, ln, "rgb")?),
+                _ => {}
+            }
+        }
+        self.positions.push(xyz);
+        self.has_normal.push(normal.is_some());
+        self.has_uv.push(uv.is_some());
+        self.has_rgb.push(rgb.is_some());
+        self.normals.push(normal.unwrap_or_default());
+        self.uvs.push(uv.unwrap_or_default());
+        let [r, g, b] = rgb.unwrap_or([1.0; 3]);
+        self.colors.push([r, g, b, 1.0]);
+        Ok(())
     }
-    let all = |count: usize| count == positions.len();
-    Ok(Mesh {
-        attributes: VertexAttributes {
-            normals: all(with_normal).then_some(normals),
-            uv0: all(with_uv).then_some(uvs),
-            colors: all(with_rgb).then_some(colors),
-            ..VertexAttributes::default()
-        },
-        positions,
-        triangles,
-        groups: None,
-        group_names: Vec::new(),
-    })
+
+    /// The index of vertex id token `t`.
+    fn vertex_index(&self, t: &[u8], ln: u64, user: &str) -> Result<u32, FormatError> {
+        let id = parse_i64(t, ln, "a vertex id")?;
+        u64::try_from(id)
+            .ok()
+            .and_then(|id| self.index_of.get(&id).copied())
+            .ok_or_else(|| {
+                FormatError::new(
+                    Location::Line(ln),
+                    format!("{user} refers to vertex id {id}, which is not defined"),
+                )
+            })
+    }
+
+    fn face<'a>(
+        &mut self,
+        toks: &mut impl Iterator<Item = &'a [u8]>,
+        ln: u64,
+    ) -> Result<(), FormatError> {
+        let id = parse_i64(toks.next().unwrap_or_default(), ln, "the face id")?;
+        let start = self.poly_verts.len();
+        for t in toks {
+            let v = self.vertex_index(t, ln, "face")?;
+            self.poly_verts.push(v);
+        }
+        let n = self.poly_verts.len() - start;
+        if n < 3 {
+            return Err(FormatError::new(
+                Location::Line(ln),
+                format!("a face needs at least 3 vertices, this one has {n}"),
+            ));
+        }
+        let polygon = self.poly_end.len() as u32;
+        self.poly_end.push(self.poly_verts.len());
+        self.face_of_id
+            .entry(id)
+            .and_modify(|p| *p = AMBIGUOUS)
+            .or_insert(polygon);
+        Ok(())
+    }
+
+    fn corner<'a>(
+        &mut self,
+        toks: &mut impl Iterator<Item = &'a [u8]>,
+        braces: &[u8],
+        ln: u64,
+    ) -> Result<(), FormatError> {
+        let v = self.vertex_index(toks.next().unwrap_or_default(), ln, "corner")?;
+        let face_id = parse_i64(toks.next().unwrap_or_default(), ln, "the face id")?;
+        let polygon = match self.face_of_id.get(&face_id) {
+            None => {
+                return Err(FormatError::new(
+                    Location::Line(ln),
+                    format!("corner refers to face id {face_id}, which is not defined"),
+                ))
+            }
+            Some(&AMBIGUOUS) => {
+                return Err(FormatError::new(
+                    Location::Line(ln),
+                    format!("corner refers to face id {face_id}, which several faces use"),
+                ))
+            }
+            Some(&p) => p,
+        };
+        let start = match polygon.checked_sub(1) {
+            Some(prev) => self.poly_end.get(prev as usize).copied().unwrap_or(0),
+            None => 0,
+        };
+        let end = self.poly_end.get(polygon as usize).copied().unwrap_or(0);
+        let on_face = self
+            .poly_verts
+            .get(start..end)
+            .is_some_and(|verts| verts.contains(&v));
+        if !on_face {
+            return Err(FormatError::new(
+                Location::Line(ln),
+                format!("corner's vertex is not a vertex of face {face_id}"),
+            ));
+        }
+        for (key, value) in Attributes::new(braces) {
+            if key == b"normal" {
+                let n = attr_values::<3>(value, ln, "normal")?;
+                self.corner_normals.insert((v, polygon), n);
+            }
+        }
+        Ok(())
+    }
+
+    fn finish(mut self) -> Result<Mesh, FormatError> {
+        if self.positions.is_empty() {
+            return Err(FormatError::new(
+                Location::File,
+                "no 'Vertex' lines: empty or not a Hoppe .m file",
+            ));
+        }
+        let mut referenced = vec![false; self.positions.len()];
+        for &v in &self.poly_verts {
+            if let Some(r) = referenced.get_mut(v as usize) {
+                *r = true;
+            }
+        }
+        let kept = |has: &[bool]| {
+            has.iter().any(|&h| h) && has.iter().zip(&referenced).all(|(&h, &r)| h || !r)
+        };
+        let keep_uv = kept(&self.has_uv);
+        let keep_rgb = kept(&self.has_rgb);
+        let keep_normals = if self.corner_normals.is_empty() {
+            kept(&self.has_normal)
+        } else {
+            self.split_corner_normals()?
+        };
+        let mut triangles = Vec::with_capacity(self.poly_verts.len());
+        let mut start = 0;
+        for &end in &self.poly_end {
+            if let Some((&a, rest)) = self
+                .poly_verts
+                .get(start..end)
+                .and_then(<[u32]>::split_first)
+            {
+                for pair in rest.windows(2) {
+                    if let [b, c] = *pair {
+                        triangles.push([a, b, c]);
+                    }
+                }
+            }
+            start = end;
+        }
+        Ok(Mesh {
+            attributes: VertexAttributes {
+                normals: keep_normals.then_some(self.normals),
+                uv0: keep_uv.then_some(self.uvs),
+                colors: keep_rgb.then_some(self.colors),
+                ..VertexAttributes::default()
+            },
+            positions: self.positions,
+            triangles,
+            groups: None,
+            group_names: Vec::new(),
+        })
+    }
+
+    /// Gives every corner its normal (the corner's own, else its vertex's), adding a
+    /// vertex for each distinct extra normal of a position. Returns false, changing
+    /// nothing, when some corner has no normal at all.
+    fn split_corner_normals(&mut self) -> Result<bool, FormatError> {
+        let normal_of = |r: &Self, v: u32, p: u32| {
+            r.corner_normals.get(&(v, p)).copied().or_else(|| {
+                r.has_normal
+                    .get(v as usize)
+                    .copied()
+                    .unwrap_or(false)
+                    .then(|| r.normals.get(v as usize).copied().unwrap_or_default())
+            })
+        };
+        let mut start = 0;
+        for (p, &end) in self.poly_end.iter().enumerate() {
+            for &v in self.poly_verts.get(start..end).unwrap_or_default() {
+                if normal_of(self, v, p as u32).is_none() {
+                    return Ok(false);
+                }
+            }
+            start = end;
+        }
+        let bits = |n: [f32; 3]| n.map(f32::to_bits);
+        // Vertex i takes the normal of its first corner, so no vertex is left unused.
+        let mut claim: Vec<Option<[u32; 3]>> = vec![None; self.positions.len()];
+        let mut extra_of: FastMap<(u32, [u32; 3]), u32> = FastMap::default();
+        let mut extra_source: Vec<u32> = Vec::new();
+        let mut start = 0;
+        for p in 0..self.poly_end.len() {
+            let end = self.poly_end.get(p).copied().unwrap_or(start);
+            for k in start..end {
+                let Some(&v) = self.poly_verts.get(k) else {
+                    continue;
+                };
+                let n = normal_of(self, v, p as u32).unwrap_or_default();
+                let b = bits(n);
+                let Some(slot) = claim.get_mut(v as usize) else {
+                    continue;
+                };
+                match slot {
+                    None => {
+                        *slot = Some(b);
+                        if let Some(out) = self.normals.get_mut(v as usize) {
+                            *out = n;
+                        }
+                    }
+                    Some(c) if *c == b => {}
+                    Some(_) => {
+                        let next = self.positions.len() + extra_source.len();
+                        let next = u32::try_from(next)
+                            .ok()
+                            .filter(|&i| i != u32::MAX)
+                            .ok_or_else(|| {
+                                FormatError::new(
+                                    Location::File,
+                                    "more vertices than 32-bit indices can address",
+                                )
+                            })?;
+                        let index = *extra_of.entry((v, b)).or_insert_with(|| {
+                            extra_source.push(v);
+                            self.normals.push(n);
+                            next
+                        });
+                        if let Some(out) = self.poly_verts.get_mut(k) {
+                            *out = index;
+                        }
+                    }
+                }
+            }
+            start = end;
+        }
+        for &v in &extra_source {
+            let v = v as usize;
+            let p = self.positions.get(v).copied().unwrap_or_default();
+            self.positions.push(p);
+            let uv = self.uvs.get(v).copied().unwrap_or_default();
+            self.uvs.push(uv);
+            let c = self.colors.get(v).copied().unwrap_or([1.0; 4]);
+            self.colors.push(c);
+        }
+        Ok(true)
+    }
 }
 
 /// Splits a line into the part before `{` and the inside of the braces (empty when
@@ -427,6 +633,91 @@ mod tests {
              Vertex 3 0 1 0 {normal=(0 0 1)}\nFace 1 1 2 3\n",
         );
         assert_eq!(m.attributes.normals, None);
+    }
+
+    // 3          two faces sharing edge 1-3, with a crease along it: vertex 1 has no
+    // │ ╲        vertex normal; its corner in face 1 has normal +z, in face 2 +x.
+    // 1 ─ 2      4 sits above 1 (z = 1).
+    const CREASE: &str = "Vertex 1 0 0 0\nVertex 2 1 0 0 {normal=(0 0 1)}\n\
+        Vertex 3 0 1 0 {normal=(0 0 1)}\nVertex 4 0 0 1 {normal=(1 0 0)}\n\
+        Face 1 1 2 3\nFace 2 1 3 4\n\
+        Corner 1 1 {normal=(0 0 1)}\nCorner 1 2 {normal=(1 0 0)}\n";
+
+    #[test]
+    fn corner_normals_split_vertices() {
+        let m = mesh(CREASE);
+        assert_eq!(m.positions.len(), 5);
+        assert_eq!(m.positions[4], [0.0, 0.0, 0.0]);
+        assert_eq!(m.triangles, vec![[0, 1, 2], [4, 2, 3]]);
+        assert_eq!(
+            m.attributes.normals,
+            Some(vec![
+                [0.0, 0.0, 1.0],
+                [0.0, 0.0, 1.0],
+                [0.0, 0.0, 1.0],
+                [1.0, 0.0, 0.0],
+                [1.0, 0.0, 0.0]
+            ])
+        );
+        // A corner normal equal to the vertex's own adds nothing.
+        let m = mesh(&format!("{CREASE}Corner 3 2 {{normal=(0 0 1)}}\n"));
+        assert_eq!(m.positions.len(), 5);
+        // A different one for vertex 3 in face 2 adds a vertex.
+        let m = mesh(&format!("{CREASE}Corner 3 2 {{normal=(0 1 0)}}\n"));
+        assert_eq!(m.positions.len(), 6);
+        assert_eq!(m.triangles[1], [4, 5, 3]);
+        assert_eq!(m.attributes.normals.unwrap()[5], [0.0, 1.0, 0.0]);
+    }
+
+    #[test]
+    fn corner_without_any_normal_drops_normals() {
+        // Vertex 1's corner in face 2 has neither a corner nor a vertex normal.
+        let src = CREASE.replace("Corner 1 2 {normal=(1 0 0)}\n", "Corner 1 2 {uv=(0 0)}\n");
+        let m = mesh(&src);
+        assert_eq!(m.attributes.normals, None);
+        assert_eq!(m.positions.len(), 4);
+        assert_eq!(m.triangles, vec![[0, 1, 2], [0, 2, 3]]);
+    }
+
+    #[test]
+    fn unused_vertices_need_no_attributes() {
+        // Vertex 9 is used by no face and has no uv: the others' uvs are kept.
+        let m = mesh(
+            "Vertex 1 0 0 0 {uv=(0 0)}\nVertex 2 1 0 0 {uv=(1 0)}\nVertex 9 5 5 5\n\
+             Vertex 3 0 1 0 {uv=(0 1)}\nFace 1 1 2 3\n",
+        );
+        assert_eq!(
+            m.attributes.uv0,
+            Some(vec![[0.0, 0.0], [1.0, 0.0], [0.0, 0.0], [0.0, 1.0]])
+        );
+    }
+
+    #[test]
+    fn corner_errors() {
+        let cases: &[(&str, &str)] = &[
+            (
+                "Corner 7 1 {normal=(0 0 1)}\n",
+                "vertex id 7, which is not defined",
+            ),
+            (
+                "Corner 1 9 {normal=(0 0 1)}\n",
+                "face id 9, which is not defined",
+            ),
+            ("Corner 2 2 {normal=(0 0 1)}\n", "not a vertex of face 2"),
+            ("Corner 1 1 {normal=(0 x 1)}\n", "expected a number"),
+            (
+                "Face 2 2 3 4\nCorner 3 2 {normal=(0 0 1)}\n",
+                "several faces use",
+            ),
+        ];
+        for (lines, message) in cases {
+            let e = err(&format!("{CREASE}{lines}"));
+            let last = 8 + lines.lines().count() as u64;
+            assert_eq!(e.location, Location::Line(last), "{lines}");
+            assert!(e.message.contains(message), "{lines}: {}", e.message);
+        }
+        // Reused face ids are fine while no corner refers to them.
+        assert_eq!(mesh(&format!("{CREASE}Face 2 2 3 4\n")).triangles.len(), 3);
     }
 
     #[test]

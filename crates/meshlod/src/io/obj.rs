@@ -36,7 +36,7 @@
 //! positions also get those defaults.
 //!
 //! # Writing
-//! [`write`] writes [`Scene::flatten`]: `mtllib` lines, `o` (for a single named part),
+//! [`write()`] writes [`Scene::flatten`]: `mtllib` lines, `o` (for a single named part),
 //! one `v` (with `r g b` when the mesh has colours), `vt` and `vn` line per vertex, and
 //! the triangles grouped by material (stable order within a group) with a `usemtl`
 //! before each group. Numbers are printed in the shortest form that reads back as the

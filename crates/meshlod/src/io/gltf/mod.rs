@@ -226,61 +226,55 @@ pub fn write_glb(scene: &Scene) -> Result<Vec<u8>, FormatError> {
 /// (positions, triangles, attribute streams, groups), to tell whether a part changed
 /// since it was read. Not cryptographic; deterministic.
 fn fingerprint(mesh: &Mesh) -> u64 {
+    /// A multiply–rotate mix (in the style of FxHash) of one 64-bit word.
+    fn mix(h: u64, w: u64) -> u64 {
+        (h.rotate_left(5) ^ w).wrapping_mul(0x517c_c1b7_2722_0a95)
+    }
     struct H(u64);
     impl H {
         fn word(&mut self, w: u64) {
-            // A multiply–rotate mix (in the style of FxHash) over 64-bit words.
-            self.0 = (self.0.rotate_left(5) ^ w).wrapping_mul(0x51_7c_c1_b7_27_22_0a_95);
+            self.0 = mix(self.0, w);
         }
-        fn floats(&mut self, tag: u64, v: Option<&[f32]>) {
+        /// Mixes a tagged stream of 32-bit values in four independent lanes (so the
+        /// multiplications overlap), then folds the lanes in.
+        fn stream<T: Copy>(&mut self, tag: u64, v: Option<&[T]>, bits: impl Fn(T) -> u32) {
             self.word(tag);
-            if let Some(v) = v {
-                self.word(v.len() as u64);
-                let mut it = v.chunks_exact(2);
-                for c in &mut it {
-                    if let [a, b] = c {
-                        self.word(u64::from(a.to_bits()) | u64::from(b.to_bits()) << 32);
-                    }
+            let Some(v) = v else {
+                return;
+            };
+            self.word(v.len() as u64);
+            let mut lanes = [self.0, self.0 ^ 1, self.0 ^ 2, self.0 ^ 3];
+            let mut it = v.chunks_exact(8);
+            for c in &mut it {
+                for (k, lane) in lanes.iter_mut().enumerate() {
+                    let w = u64::from(bits(c[2 * k])) | u64::from(bits(c[2 * k + 1])) << 32;
+                    *lane = mix(*lane, w);
                 }
-                for r in it.remainder() {
-                    self.word(u64::from(r.to_bits()));
-                }
+            }
+            for &r in it.remainder() {
+                lanes[0] = mix(lanes[0], u64::from(bits(r)));
+            }
+            for l in lanes {
+                self.word(l);
             }
         }
     }
     let a = &mesh.attributes;
+    let f = f32::to_bits;
     let mut h = H(0x6d65_7368_6c6f_6421);
-    h.floats(1, Some(mesh.positions.as_flattened()));
-    h.word(2);
-    h.word(mesh.triangles.len() as u64);
-    for t in &mesh.triangles {
-        h.word(u64::from(t[0]) | u64::from(t[1]) << 32);
-        h.word(u64::from(t[2]));
-    }
-    h.floats(3, a.normals.as_deref().map(<[[f32; 3]]>::as_flattened));
-    h.floats(4, a.tangents.as_deref().map(<[[f32; 4]]>::as_flattened));
-    h.floats(5, a.uv0.as_deref().map(<[[f32; 2]]>::as_flattened));
-    h.floats(6, a.uv1.as_deref().map(<[[f32; 2]]>::as_flattened));
-    h.floats(7, a.colors.as_deref().map(<[[f32; 4]]>::as_flattened));
-    h.floats(8, a.weights.as_deref().map(<[[f32; 4]]>::as_flattened));
-    h.word(9);
-    if let Some(j) = &a.joints {
-        h.word(j.len() as u64);
-        for j in j {
-            h.word(
-                u64::from(j[0])
-                    | u64::from(j[1]) << 16
-                    | u64::from(j[2]) << 32
-                    | u64::from(j[3]) << 48,
-            );
-        }
-    }
-    h.word(10);
-    if let Some(g) = &mesh.groups {
-        h.word(g.len() as u64);
-        for &g in g {
-            h.word(u64::from(g));
-        }
-    }
+    h.stream(1, Some(mesh.positions.as_flattened()), f);
+    h.stream(2, Some(mesh.triangles.as_flattened()), |x| x);
+    h.stream(3, a.normals.as_deref().map(<[[f32; 3]]>::as_flattened), f);
+    h.stream(4, a.tangents.as_deref().map(<[[f32; 4]]>::as_flattened), f);
+    h.stream(5, a.uv0.as_deref().map(<[[f32; 2]]>::as_flattened), f);
+    h.stream(6, a.uv1.as_deref().map(<[[f32; 2]]>::as_flattened), f);
+    h.stream(7, a.colors.as_deref().map(<[[f32; 4]]>::as_flattened), f);
+    h.stream(8, a.weights.as_deref().map(<[[f32; 4]]>::as_flattened), f);
+    h.stream(
+        9,
+        a.joints.as_deref().map(<[[u16; 4]]>::as_flattened),
+        u32::from,
+    );
+    h.stream(10, mesh.groups.as_deref(), |x| x);
     h.0
 }

@@ -173,9 +173,11 @@ fn check_asset(root: &Obj) -> Result<(), FormatError> {
     match version("version")? {
         None => return Err(file("asset has no \"version\"".into())),
         Some((2, _)) => {}
-        Some((major, minor)) => return Err(file(format!(
+        Some((major, minor)) => {
+            return Err(file(format!(
             "glTF version {major}.{minor}; meshlod reads glTF 2.x (convert glTF 1.0 files first)"
-        ))),
+        )))
+        }
     }
     if let Some((major, minor)) = version("minVersion")? {
         if (major, minor) > (2, 0) {

@@ -21,9 +21,7 @@ fn array_mut<'a>(root: &'a mut Obj, key: &str) -> impl Iterator<Item = (usize, &
         .filter_map(|(i, v)| v.as_object_mut().map(|o| (i, o)))
 }
 
-fn object_values<'a>(
-    o: Option<&'a mut Value>,
-) -> impl Iterator<Item = (&'a String, &'a mut Value)> {
+fn object_values(o: Option<&mut Value>) -> impl Iterator<Item = (&String, &mut Value)> {
     o.and_then(Value::as_object_mut)
         .into_iter()
         .flat_map(|m| m.iter_mut())

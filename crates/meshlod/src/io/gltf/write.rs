@@ -301,13 +301,17 @@ fn extract(mesh: &Mesh, tris: &[u32], streams: Streams, remap: &mut [u32]) -> Me
     sub
 }
 
+/// `v` scaled to unit length (kept bit-exact when it is unit within 1e-5), or
+/// `fallback` when it has no direction.
 fn unit(v: [f32; 3], fallback: [f32; 3]) -> [f32; 3] {
     let len = v
         .iter()
         .map(|&x| f64::from(x) * f64::from(x))
         .sum::<f64>()
         .sqrt();
-    if len > 0.0 && len.is_finite() {
+    if (len - 1.0).abs() <= 1e-5 {
+        v
+    } else if len > 0.0 && len.is_finite() {
         v.map(|x| (f64::from(x) / len) as f32)
     } else {
         fallback
@@ -986,4 +990,22 @@ fn fresh(scene: &Scene) -> Result<(Value, Pool), FormatError> {
         root.insert("materials".into(), Value::Array(materials));
     }
     Ok((Value::Object(root), pool))
+}
+
+/// The component type and byte length of the index accessor written for `tris` of a
+/// primitive with `vertices` vertices.
+#[cfg(test)]
+pub(super) fn index_layout(tris: &[[u32; 3]], vertices: usize) -> (u32, usize) {
+    let mut pool = Pool::default();
+    let a = pool.indices(tris, vertices);
+    let code = pool
+        .accessors
+        .get(a)
+        .and_then(|a| a["componentType"].as_u64())
+        .unwrap_or(0) as u32;
+    let len = match pool.views.last() {
+        Some(PoolView::New { data, .. }) => data.len(),
+        _ => 0,
+    };
+    (code, len)
 }

@@ -3,7 +3,7 @@
 //! (<https://registry.khronos.org/glTF/specs/2.0/glTF-2.0.html>).
 //!
 //! # Reading
-//! [`read`] accepts JSON or GLB (detected by the `glTF` magic). Buffers come from the
+//! [`read()`] accepts JSON or GLB (detected by the `glTF` magic). Buffers come from the
 //! GLB `BIN` chunk, base64 data URIs, or files relative to the glTF file (never from
 //! absolute paths or URLs). Every accessor and buffer view is bounds-checked before
 //! anything is decoded. All component types, the `normalized` flag, byte strides,

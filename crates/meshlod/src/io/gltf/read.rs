@@ -207,7 +207,7 @@ fn check_extensions(root: &Obj) -> Result<(), FormatError> {
     let required = names("extensionsRequired")?;
     for name in used.iter().chain(&required) {
         if COMPRESSED.contains(name) {
-            return Err(compressed(name, Location::File, "the file"));
+            return Err(compressed(name, Location::File, "file"));
         }
     }
     for name in &required {
@@ -215,7 +215,7 @@ fn check_extensions(root: &Obj) -> Result<(), FormatError> {
             return Err(FormatError::new(
                 Location::File,
                 format!(
-                    "the file requires extension {name}, which meshlod does not support, \
+                    "file requires extension {name}, which meshlod does not support, \
                      so it cannot be read correctly"
                 ),
             ));
@@ -227,7 +227,7 @@ fn check_extensions(root: &Obj) -> Result<(), FormatError> {
                 return Err(compressed(
                     name,
                     Location::Element("bufferView", i as u64),
-                    "the buffer view",
+                    "its data",
                 ));
             }
         }

@@ -12,8 +12,8 @@
 //! message saying so, as is any other required extension meshlod does not know.
 //!
 //! Each glTF mesh becomes one [`Part`](super::Part): its triangle primitives
-//! (`TRIANGLES`, `TRIANGLE_STRIP`, `TRIANGLE_FAN`, converted to triangle lists; index
-//! -degenerate stitching triangles of strips and fans are dropped) are concatenated,
+//! (`TRIANGLES`, `TRIANGLE_STRIP`, `TRIANGLE_FAN`, converted to triangle lists; the
+//! index-degenerate stitching triangles of strips and fans are dropped) are concatenated,
 //! with the primitive's position in the mesh as the triangle group and the material
 //! name as the group name, so material borders become attribute seams for a
 //! simplifier. Primitives sharing the same vertex accessors share vertices. Points
@@ -37,8 +37,13 @@
 //! dropped (with the mesh's and its nodes' `weights` and the animation channels
 //! driving them), because the simplified vertices no longer match them; nothing else
 //! about them is recorded. Attributes meshlod does not model (`TEXCOORD_2`,
-//! `JOINTS_1`, custom attributes) are likewise lost on changed parts. Part instances
-//! are not written back: the original node hierarchy is kept.
+//! `JOINTS_1`, custom attributes) are likewise lost on changed parts. A part's name,
+//! when set, becomes its mesh's name. Part instances are not written back: the
+//! original node hierarchy is kept. The scene must still have one part per glTF mesh
+//! (clear [`Scene::gltf`](super::Scene::gltf) to write a restructured scene as a
+//! fresh document). Extensions other than `EXT_mesh_gpu_instancing` are assumed not
+//! to refer to accessors or buffer views (true of the material, texture, light and
+//! metadata extensions), since those are renumbered.
 //!
 //! The output has a single buffer: only the accessors and buffer views still
 //! referenced are kept, buffer views are trimmed to the bytes their accessors use and
@@ -51,8 +56,11 @@
 //! [`write_embedded`]) so those are self-contained.
 //!
 //! A scene without a glTF document (e.g. read from OBJ) is written as a fresh
-//! document: one mesh per part, one primitive per group with a material named after
-//! the group, one node per instance.
+//! document (`asset.generator` "meshlod"): one mesh per part that has triangles, one
+//! primitive per group with a material named after the group (groups of the same
+//! name share a material), one node per instance (with its matrix unless it is the
+//! identity) and one scene holding those nodes. Every attribute stream of the mesh is
+//! written, including `JOINTS_0`/`WEIGHTS_0` (there is no skin to use them).
 
 mod accessor;
 mod glb;
@@ -71,8 +79,9 @@ use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
 /// The original glTF document kept with a scene so a writer can give it back: the
-/// JSON, the binary buffers it refers to, the directory it came from (for external
-/// images), and how each glTF mesh was turned into a [`Part`](super::Part).
+/// JSON, the binary buffers it refers to (held whole in memory, shared between
+/// clones), the directory it came from (for external images), and how each glTF mesh
+/// was turned into a [`Part`](super::Part).
 #[derive(Clone, PartialEq, Default)]
 pub struct GltfSource {
     /// The JSON document as read.

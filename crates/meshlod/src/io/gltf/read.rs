@@ -95,10 +95,10 @@ pub(super) fn read(data: &[u8], base_dir: Option<&Path>) -> Result<Scene, Format
     let root: &Obj = root;
     let meshes = top_array(root, "meshes")?;
     let materials = top_array(root, "materials")?;
-    let mut instances = scene_instances(root, &store, meshes.len())?;
+    let instances = scene_instances(root, &store, meshes.len())?;
     let mut parts = Vec::with_capacity(meshes.len());
     let mut sources = Vec::with_capacity(meshes.len());
-    for (m, v) in meshes.iter().enumerate() {
+    for ((m, v), instances) in meshes.iter().enumerate().zip(instances) {
         let (name, mesh, primitives) = read_mesh(&store, m, v, materials)?;
         sources.push(MeshSource {
             fingerprint: fingerprint(&mesh),
@@ -107,7 +107,7 @@ pub(super) fn read(data: &[u8], base_dir: Option<&Path>) -> Result<Scene, Format
         parts.push(Part {
             name,
             mesh,
-            instances: std::mem::take(instances.get_mut(m).unwrap_or(&mut Vec::new())),
+            instances,
         });
     }
     drop(store);
@@ -125,7 +125,10 @@ pub(super) fn read(data: &[u8], base_dir: Option<&Path>) -> Result<Scene, Format
 
 /// Parses the JSON text; errors point at the line (`.gltf`) or byte (`.glb`).
 fn parse_json(text: &[u8], glb_offset: Option<usize>) -> Result<Value, FormatError> {
-    let text = text.strip_prefix(b"\xEF\xBB\xBF").unwrap_or(text);
+    let (text, glb_offset) = match text.strip_prefix(b"\xEF\xBB\xBF") {
+        Some(rest) => (rest, glb_offset.map(|o| o + 3)),
+        None => (text, glb_offset),
+    };
     if text.iter().all(u8::is_ascii_whitespace) {
         let location = glb_offset.map_or(Location::File, |o| Location::Byte(o as u64));
         return Err(FormatError::new(location, "empty glTF JSON"));

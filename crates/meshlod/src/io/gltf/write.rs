@@ -400,12 +400,15 @@ fn rebuild(scene: &Scene, src: &GltfSource) -> Result<(Value, Pool), FormatError
         .zip(meshes.iter_mut())
         .enumerate()
     {
-        if fingerprint(&part.mesh) == source.fingerprint {
-            continue;
-        }
         let mesh = mesh
             .as_object_mut()
             .ok_or_else(|| elem("mesh", m, "is not an object"))?;
+        if let Some(name) = &part.name {
+            mesh.insert("name".into(), Value::from(name.as_str()));
+        }
+        if fingerprint(&part.mesh) == source.fingerprint {
+            continue;
+        }
         let old = take_array(mesh, "primitives");
         let had_targets = old.iter().any(|p| p.get("targets").is_some());
         let mut prims = rewrite_primitives(&mut pool, part, source, old);

@@ -125,10 +125,16 @@ pub(super) fn read(data: &[u8], base_dir: Option<&Path>) -> Result<Scene, Format
 
 /// Parses the JSON text; errors point at the line (`.gltf`) or byte (`.glb`).
 fn parse_json(text: &[u8], glb_offset: Option<usize>) -> Result<Value, FormatError> {
-    let (text, glb_offset) = match text.strip_prefix(b"\xEF\xBB\xBF") {
+    let (mut text, glb_offset) = match text.strip_prefix(b"\xEF\xBB\xBF") {
         Some(rest) => (rest, glb_offset.map(|o| o + 3)),
         None => (text, glb_offset),
     };
+    if glb_offset.is_some() {
+        // Some writers pad the JSON chunk with zeros instead of spaces.
+        while let Some(rest) = text.strip_suffix(b"\0") {
+            text = rest;
+        }
+    }
     if text.iter().all(u8::is_ascii_whitespace) {
         let location = glb_offset.map_or(Location::File, |o| Location::Byte(o as u64));
         return Err(FormatError::new(location, "empty glTF JSON"));

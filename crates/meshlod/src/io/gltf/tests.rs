@@ -243,6 +243,12 @@ fn glb_chunk_order_types_and_alignment() {
     let bad_json = glb::write(b"{\n \"asset\": ]", &[]).unwrap();
     let e = read_err(&bad_json);
     assert_err(&e, Location::Byte(20 + 12), "invalid JSON");
+    // JSON padded with zeros instead of spaces is accepted.
+    let d = square();
+    let mut json = serde_json::to_vec(&d.with_buffer(None)).unwrap();
+    json.resize(json.len().next_multiple_of(4) + 4, 0);
+    let zero_padded = glb::write(&json, &d.bin).unwrap();
+    assert_eq!(read_ok(&zero_padded).parts[0].mesh.triangles.len(), 2);
     // Buffer 0 without uri in a GLB without BIN chunk.
     let mut d = square();
     d.json["buffers"] = json!([{ "byteLength": 4 }]);
@@ -1781,4 +1787,75 @@ fn replace_leaf(v: &mut Value, k: usize, with: Value) {
     }
     let mut k = k;
     walk(v, &mut k, &mut Some(with));
+}
+
+// ---------------------------------------------------------------- real files
+
+/// The shared test meshes (`shared/meshes` beside the repository or one of its
+/// parents), when present.
+fn shared_meshes() -> Option<std::path::PathBuf> {
+    std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+        .ancestors()
+        .map(|a| a.join("shared/meshes"))
+        .find(|d| d.join("MANIFEST.md").is_file())
+}
+
+#[test]
+fn sample_models_match_the_manifest_and_round_trip() {
+    let Some(dir) = shared_meshes() else {
+        eprintln!("shared/meshes not found: skipping the sample-model check");
+        return;
+    };
+    // (model, instanced vertices, instanced triangles) from shared/meshes/MANIFEST.md.
+    let expected = [
+        ("2CylinderEngine", 84_657, 121_496),
+        ("Avocado", 406, 682),
+        ("BrainStem", 34_159, 61_666),
+        ("DamagedHelmet", 14_556, 15_452),
+        ("Duck", 2_399, 4_212),
+        ("ReciprocatingSaw", 156_254, 198_470),
+        ("VC", 19_483, 8_383),
+        ("WaterBottle", 2_549, 4_510),
+    ];
+    for (name, vertices, triangles) in expected {
+        let path = dir.join(format!("gltf-sample-models/{name}/{name}.gltf"));
+        let scene = crate::io::read_scene(&path).unwrap();
+        let v: usize = scene
+            .parts
+            .iter()
+            .map(|p| p.mesh.positions.len() * p.instances.len())
+            .sum();
+        assert_eq!(
+            (v, scene.instanced_triangle_count()),
+            (vertices, triangles),
+            "{name}"
+        );
+        // Unchanged: identical parts after a GLB round trip.
+        let back = read_ok(&write_glb(&scene).unwrap());
+        assert_eq!(back.parts, scene.parts, "{name}");
+        // Changed: every fifth triangle removed, still readable with the same count.
+        let mut changed = scene.clone();
+        for part in &mut changed.parts {
+            let m = &mut part.mesh;
+            let keep: Vec<bool> = (0..m.triangles.len()).map(|t| t % 5 != 4).collect();
+            let mut k = keep.iter();
+            m.triangles.retain(|_| *k.next().unwrap_or(&true));
+            if let Some(g) = &mut m.groups {
+                let mut k = keep.iter();
+                g.retain(|_| *k.next().unwrap_or(&true));
+            }
+        }
+        let back = read_ok(&write_glb(&changed).unwrap());
+        assert_eq!(
+            back.instanced_triangle_count(),
+            changed.instanced_triangle_count(),
+            "{name}"
+        );
+    }
+    let pirate = crate::io::read_scene(dir.join("meshoptimizer/pirate.glb")).unwrap_err();
+    let text = pirate.to_string();
+    assert!(
+        text.contains("EXT_meshopt_compression (compressed geometry)"),
+        "{text}"
+    );
 }

@@ -12,14 +12,17 @@ pub(super) fn elem(kind: &'static str, i: usize, message: impl Into<String>) -> 
     FormatError::new(Location::Element(kind, i as u64), message)
 }
 
-/// A short rendering of a JSON value for messages.
+/// A short rendering of a JSON value for messages (containers are summarised, not
+/// printed).
 pub(super) fn show(v: &Value) -> String {
-    let s = v.to_string();
-    if s.len() > 40 {
-        let cut = (0..=40).rev().find(|&i| s.is_char_boundary(i)).unwrap_or(0);
-        format!("{}…", &s[..cut])
-    } else {
-        s
+    match v {
+        Value::Array(a) => format!("an array of {} items", a.len()),
+        Value::Object(o) => format!("an object of {} members", o.len()),
+        Value::String(s) if s.len() > 40 => {
+            let cut = (0..=40).rev().find(|&i| s.is_char_boundary(i)).unwrap_or(0);
+            format!("\"{}…\"", s.get(..cut).unwrap_or(""))
+        }
+        other => other.to_string(),
     }
 }
 

@@ -33,11 +33,6 @@ impl<'a> Lines<'a> {
     pub(crate) fn offset(&self) -> usize {
         self.pos
     }
-
-    /// Bytes not yet returned.
-    pub(crate) fn rest(&self) -> &'a [u8] {
-        &self.data[self.pos..]
-    }
 }
 
 impl<'a> Iterator for Lines<'a> {

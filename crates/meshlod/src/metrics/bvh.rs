@@ -60,9 +60,9 @@ impl Aabb {
         hi: [f32::NEG_INFINITY; 3],
     };
     fn grow(&mut self, p: [f32; 3]) {
-        for k in 0..3 {
-            self.lo[k] = self.lo[k].min(p[k]);
-            self.hi[k] = self.hi[k].max(p[k]);
+        for (k, &v) in p.iter().enumerate() {
+            self.lo[k] = self.lo[k].min(v);
+            self.hi[k] = self.hi[k].max(v);
         }
     }
     fn merge(&mut self, o: &Aabb) {
@@ -332,13 +332,13 @@ impl Bvh {
 #[inline]
 fn box_dist2(p: V3, n: &Node) -> f64 {
     let mut d = 0.0;
-    for k in 0..3 {
+    for (k, &x) in p.iter().enumerate() {
         let lo = f64::from(n.lo[k]);
         let hi = f64::from(n.hi[k]);
-        let e = if p[k] < lo {
-            lo - p[k]
-        } else if p[k] > hi {
-            p[k] - hi
+        let e = if x < lo {
+            lo - x
+        } else if x > hi {
+            x - hi
         } else {
             0.0
         };

@@ -2,7 +2,7 @@
 
 use anyhow::Result;
 use meshlod::io::{read_scene, Format};
-use meshlod::mesh::MeshStats;
+use meshlod::mesh::{MeshStats, Weld};
 use serde::Serialize;
 use std::path::PathBuf;
 
@@ -33,7 +33,10 @@ struct InfoReport<'a> {
 pub fn run(args: &InfoArgs) -> Result<()> {
     let scene = read_scene(&args.file)?;
     let mesh = scene.flatten();
-    let stats = MeshStats::of(&mesh);
+    // Topology on world positions welded in f64, so that instances placed by node
+    // transforms weld where they truly touch and nowhere else.
+    let weld = Weld::exact_f64(&scene.world_positions_f64());
+    let stats = MeshStats::with_weld(&mesh, &weld);
     let format = Format::from_path(&args.file).map_or("?", Format::name);
     let report = InfoReport {
         file: args.file.display().to_string(),

@@ -67,13 +67,17 @@ fn info_json_has_the_contract_fields() {
         String::from_utf8_lossy(&out.stderr)
     );
     let v: serde_json::Value = serde_json::from_slice(&out.stdout).expect("one JSON object");
-    // The cow of Garland & Heckbert: 2,903 vertices, 5,804 triangles, closed, genus 0.
+    // The cow of Garland & Heckbert: 2,903 vertices, 5,804 triangles, closed, no
+    // non-manifold edge, but one pinched vertex (two fans meet there): χ = V − E + F =
+    // 2903 − 8706 + 5804 = 1, so it is not a manifold and has no genus.
     assert_eq!(v["vertices"], 2903);
     assert_eq!(v["triangles"], 5804);
     assert_eq!(v["boundary_edges"], 0);
     assert_eq!(v["non_manifold_edges"], 0);
+    assert_eq!(v["non_manifold_vertices"], 1);
+    assert_eq!(v["euler_characteristic"], 1);
     assert_eq!(v["components"], 1);
-    assert_eq!(v["genus"], 0);
+    assert!(v["genus"].is_null());
     assert_eq!(v["degenerate_triangles"], 0);
     assert_eq!(v["duplicate_triangles"], 0);
     let diag = v["bbox_diagonal"].as_f64().unwrap();
@@ -83,7 +87,15 @@ fn info_json_has_the_contract_fields() {
 }
 
 #[test]
-fn info_json_genus_is_null_for_open_meshes() {
+fn info_json_genus_of_a_closed_manifold_and_null_for_open_meshes() {
+    // Spot: closed genus-0 manifold (Crane's README says so).
+    let spot = data_dir().join("spot.obj");
+    let out = meshlod(&["info", spot.to_str().unwrap(), "--json"]);
+    assert!(out.status.success());
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(v["genus"], 0);
+    assert_eq!(v["euler_characteristic"], 2);
+
     let bunny = data_dir().join("stanford-bunny.obj");
     let out = meshlod(&["info", bunny.to_str().unwrap(), "--json"]);
     assert!(out.status.success());

@@ -56,25 +56,29 @@ fn caps(format: Format) -> Caps {
 }
 
 /// A corner: position, then optional normal, uv, colour (as bit patterns for exact
-/// comparison), then the triangle's group.
+/// comparison), then the triangle's group by name (formats renumber group ids in order
+/// of appearance; names are what they keep).
 type Corner = (
     [u32; 3],
     Option<[u32; 3]>,
     Option<[u32; 2]>,
     Option<[u32; 4]>,
-    u32,
+    String,
 );
 
 /// The mesh's triangles as corner triples, sorted: writers may reorder triangles
 /// (grouping them by material) but not change them.
-fn corners(m: &Mesh, c: Caps) -> Vec<[Corner; 3]> {
-    let flat = corner_list(m, c);
-    let mut tris: Vec<[Corner; 3]> = flat.chunks_exact(3).map(|k| [k[0], k[1], k[2]]).collect();
+fn corners(m: &Mesh, c: Caps, by_name: bool) -> Vec<[Corner; 3]> {
+    let flat = corner_list(m, c, by_name);
+    let mut tris: Vec<[Corner; 3]> = flat
+        .chunks_exact(3)
+        .map(|k| [k[0].clone(), k[1].clone(), k[2].clone()])
+        .collect();
     tris.sort_unstable();
     tris
 }
 
-fn corner_list(m: &Mesh, c: Caps) -> Vec<Corner> {
+fn corner_list(m: &Mesh, c: Caps, by_name: bool) -> Vec<Corner> {
     let bits3 = |v: [f32; 3]| v.map(f32::to_bits);
     let mut out = Vec::with_capacity(m.triangles.len() * 3);
     for (t, tri) in m.triangles.iter().enumerate() {
@@ -91,7 +95,18 @@ fn corner_list(m: &Mesh, c: Caps) -> Vec<Corner> {
                 c.colors
                     .then(|| m.attributes.colors.as_ref().map(|u| u[i].map(f32::to_bits)))
                     .flatten(),
-                if c.groups { m.group(t) } else { 0 },
+                if c.groups && by_name {
+                    let g = m.group(t) as usize;
+                    m.group_names
+                        .get(g)
+                        .cloned()
+                        .unwrap_or_else(|| format!("#{g}"))
+                } else if c.groups {
+                    // Unnamed groups: writers invent names, ids must survive.
+                    format!("#{}", m.group(t))
+                } else {
+                    String::new()
+                },
             ));
         }
     }
@@ -177,7 +192,13 @@ fn check(mesh: &Mesh, format: Format, ascii: bool) -> Result<(), TestCaseError> 
     let back = roundtrip(mesh, format, ascii).map_err(TestCaseError::fail)?;
     let c = caps(format);
     prop_assert_eq!(back.triangles.len(), mesh.triangles.len());
-    prop_assert_eq!(corners(&back, c), corners(mesh, c), "{:?}", format);
+    let named = !mesh.group_names.is_empty();
+    prop_assert_eq!(
+        corners(&back, c, named),
+        corners(mesh, c, named),
+        "{:?}",
+        format
+    );
     Ok(())
 }
 
@@ -221,7 +242,8 @@ fn shipped_meshes_survive_every_format() {
                 .unwrap_or_else(|e| panic!("{name} as {format:?}: {e}"));
             let c = caps(format);
             assert!(
-                corners(&back, c) == corners(&mesh, c),
+                corners(&back, c, !mesh.group_names.is_empty())
+                    == corners(&mesh, c, !mesh.group_names.is_empty()),
                 "{name} changed in a round trip through {format:?} (ascii {ascii})"
             );
         }

@@ -246,6 +246,25 @@ impl Scene {
         out
     }
 
+    /// World positions of every instance of every part, in the vertex order of
+    /// [`Self::flatten`], transformed in f64 (not rounded to f32).
+    #[must_use]
+    pub fn world_positions_f64(&self) -> Vec<[f64; 3]> {
+        let mut out = Vec::new();
+        for part in &self.parts {
+            for m in &part.instances {
+                let a = |r: usize, c: usize| f64::from(m[c][r]);
+                out.extend(part.mesh.positions.iter().map(|p| {
+                    let v = [f64::from(p[0]), f64::from(p[1]), f64::from(p[2])];
+                    std::array::from_fn(|r| {
+                        a(r, 0) * v[0] + a(r, 1) * v[1] + a(r, 2) * v[2] + a(r, 3)
+                    })
+                }));
+            }
+        }
+        out
+    }
+
     /// Total triangles over all instances.
     #[must_use]
     pub fn instanced_triangle_count(&self) -> usize {

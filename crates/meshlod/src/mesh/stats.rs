@@ -69,7 +69,17 @@ impl MeshStats {
     /// Panics if the mesh does not [validate](Mesh::validate).
     #[must_use]
     pub fn of(mesh: &Mesh) -> Self {
-        let weld = Weld::exact(&mesh.positions);
+        Self::with_weld(mesh, &Weld::exact(&mesh.positions))
+    }
+
+    /// Measures `mesh` with topology on the points of `weld` (which must have one entry
+    /// per vertex of `mesh`), e.g. a weld of world positions computed in f64
+    /// ([`Weld::exact_f64`]), as `meshlod info` does for instanced glTF scenes.
+    ///
+    /// # Panics
+    /// Panics if the mesh does not validate or `weld` does not match it.
+    #[must_use]
+    pub fn with_weld(mesh: &Mesh, weld: &Weld) -> Self {
         let welded = weld.map_triangles(&mesh.triangles);
         let topology = TopologyStats::of(&welded, weld.point_count(), |p| {
             mesh.positions[weld.representative[p as usize] as usize]
@@ -118,9 +128,18 @@ impl TopologyStats {
         let mut boundary_graph = UnionFind::new(point_count);
         let mut on_boundary = vec![false; point_count];
         let mut components = UnionFind::new(point_count);
+        let mut edges = 0usize;
         for (e, &[a, b]) in topo.edges.iter().enumerate() {
+            if a == b {
+                // The loop edge of a degenerate triangle `a a b` is not an edge.
+                continue;
+            }
+            edges += 1;
             components.union(a, b);
-            match topo.edge_valence(e) {
+            // Distinct triangles on the edge: `a a b` uses `{a, b}` twice but is one side.
+            let tris = topo.triangles_of_edge(e);
+            let valence = 1 + tris.windows(2).filter(|w| w[0] != w[1]).count();
+            match valence {
                 1 => {
                     boundary_edges += 1;
                     boundary_graph.union(a, b);
@@ -169,8 +188,7 @@ impl TopologyStats {
         sorted.sort_unstable();
         let duplicate_triangles = sorted.windows(2).filter(|w| w[0] == w[1]).count();
 
-        let euler_characteristic =
-            welded_vertices as i64 - topo.edges.len() as i64 + triangles.len() as i64;
+        let euler_characteristic = welded_vertices as i64 - edges as i64 + triangles.len() as i64;
         let genus = (boundary_edges == 0
             && non_manifold_edges == 0
             && non_manifold_vertices == 0
@@ -178,7 +196,7 @@ impl TopologyStats {
         .then(|| (2 * n_components as i64 - euler_characteristic) / 2);
         Self {
             welded_vertices,
-            edges: topo.edges.len(),
+            edges,
             boundary_edges,
             boundary_loops,
             non_manifold_edges,

@@ -5,10 +5,11 @@
 //! O(n log n) by sorting edge keys; nothing is a per-element object.
 //!
 //! Definitions (the same as the shared meshes' `MANIFEST.md`):
-//! - an *edge* is an unordered pair of points that are consecutive in some triangle;
-//!   each triangle contributes its three edges (a degenerate triangle `a a b`
-//!   contributes `{a,b}` twice and the loop `{a,a}` once);
-//! - a *boundary edge* is used by exactly one triangle side, a *non-manifold edge* by
+//! - an *edge* is an unordered pair of distinct points that are consecutive in some
+//!   triangle ([`Topology`] also lists the loop `{a,a}` of a degenerate triangle
+//!   `a a b`, with that triangle twice on `{a,b}`; statistics skip loops and count each
+//!   triangle once per edge);
+//! - a *boundary edge* is used by exactly one triangle, a *non-manifold edge* by
 //!   more than two;
 //! - a *non-manifold point* lies on a non-manifold edge, or its triangles form more
 //!   than one fan (a "bow-tie");

@@ -56,6 +56,54 @@ impl Weld {
         }
     }
 
+    /// Welds f64 positions by exact equality (e.g. world positions of scene instances
+    /// computed in f64, so that two points that differ only below f32 precision stay
+    /// apart, as the shared `MANIFEST.md` counts them).
+    #[must_use]
+    pub fn exact_f64(positions: &[[f64; 3]]) -> Self {
+        let key = |p: &[f64; 3]| {
+            [
+                (p[0] + 0.0).to_bits(),
+                (p[1] + 0.0).to_bits(),
+                (p[2] + 0.0).to_bits(),
+            ]
+        };
+        let fold = |k: [u64; 3]| {
+            hash3([
+                (k[0] ^ (k[0] >> 32)) as u32,
+                (k[1] ^ (k[1] >> 32)) as u32,
+                (k[2] ^ (k[2] >> 32)) as u32,
+            ])
+        };
+        let cap = (positions.len() * 2).next_power_of_two().max(16);
+        let mask = cap - 1;
+        let mut slots = vec![u32::MAX; cap];
+        let mut point_of = Vec::with_capacity(positions.len());
+        let mut representative = Vec::new();
+        for (i, p) in positions.iter().enumerate() {
+            let k = key(p);
+            let mut h = fold(k) as usize & mask;
+            let id = loop {
+                let s = slots[h];
+                if s == u32::MAX {
+                    let id = representative.len() as u32;
+                    slots[h] = i as u32;
+                    representative.push(i as u32);
+                    break id;
+                }
+                if key(&positions[s as usize]) == k {
+                    break point_of[s as usize];
+                }
+                h = (h + 1) & mask;
+            };
+            point_of.push(id);
+        }
+        Self {
+            point_of,
+            representative,
+        }
+    }
+
     /// The identity weld: every vertex its own point.
     #[must_use]
     pub fn identity(n: usize) -> Self {

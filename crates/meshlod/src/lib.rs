@@ -9,6 +9,7 @@
 //! The crate is organised by domain nouns:
 //! - [`mesh`]: the in-memory [`Mesh`], welding, connectivity, statistics;
 //! - [`io`]: OBJ, PLY, STL, OFF, glTF/GLB and Hoppe `.m` readers and writers;
+//! - [`metrics`]: closest points (BVH), Hausdorff / mean / RMS distances, screen-space error;
 //! - [`simplify()`]: the public simplification entry point (QEM edge collapse);
 //! - [`quadric`]: quadric error metrics;
 //! - [`collapse`]: the edge-collapse operator and its legality checks;
@@ -21,6 +22,7 @@ pub mod decimate;
 pub mod filter;
 pub mod io;
 pub mod mesh;
+pub mod metrics;
 pub mod quadric;
 pub mod simplify;
 

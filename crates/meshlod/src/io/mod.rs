@@ -257,16 +257,10 @@ impl Scene {
 }
 
 /// Options for writers.
-#[derive(Debug, Clone, PartialEq, Eq)]
+#[derive(Debug, Clone, PartialEq, Eq, Default)]
 pub struct WriteOptions {
     /// Write PLY and STL as text instead of binary. Default: false (binary).
     pub ascii: bool,
-}
-
-impl Default for WriteOptions {
-    fn default() -> Self {
-        Self { ascii: false }
-    }
 }
 
 impl WriteOptions {
@@ -305,6 +299,9 @@ pub fn read_scene_from_bytes(
     format: Format,
     base_dir: Option<&Path>,
 ) -> Result<Scene, ReadError> {
+    if data.is_empty() {
+        return Err(FormatError::new(Location::File, "file is empty (0 bytes)").into());
+    }
     let scene = match format {
         Format::Obj => obj::read(data)?,
         Format::Ply => Scene::from_mesh(ply::read(data)?),

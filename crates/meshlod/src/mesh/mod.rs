@@ -13,6 +13,7 @@
 
 pub mod generate;
 pub mod stats;
+pub mod subdivide;
 pub mod topology;
 pub mod weld;
 

@@ -1,0 +1,95 @@
+//! Runs the real `meshlod` binary: the `info` JSON contract on shipped meshes, and every
+//! file of the malformed corpus `tests/data/bad/` giving a clean error (non-zero exit,
+//! the file named, no panic).
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+fn data_dir() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../../tests/data")
+}
+
+fn meshlod(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_meshlod"))
+        .args(args)
+        .output()
+        .expect("run meshlod")
+}
+
+#[test]
+fn every_bad_file_gives_a_clean_error() {
+    let dir = data_dir().join("bad");
+    let mut files: Vec<PathBuf> = std::fs::read_dir(&dir)
+        .expect("tests/data/bad exists")
+        .map(|e| e.expect("dir entry").path())
+        .filter(|p| p.extension().is_some_and(|e| e != "py"))
+        .collect();
+    files.sort();
+    assert!(
+        files.len() >= 30,
+        "corpus has {} files, need at least 30",
+        files.len()
+    );
+    let mut failures = Vec::new();
+    for f in &files {
+        let out = meshlod(&["info", f.to_str().expect("utf-8 path")]);
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        let name = f.file_name().unwrap().to_string_lossy();
+        if out.status.success() {
+            failures.push(format!("{name}: accepted (exit 0)"));
+        } else if out.status.code() == Some(101) || stderr.contains("panicked") {
+            failures.push(format!("{name}: panicked: {stderr}"));
+        } else if !stderr.contains(name.as_ref()) {
+            failures.push(format!("{name}: message does not name the file: {stderr}"));
+        }
+    }
+    assert!(failures.is_empty(), "{}", failures.join("\n"));
+}
+
+#[test]
+fn unknown_extension_and_missing_file_are_clear() {
+    let out = meshlod(&["info", "no/such/file.obj"]);
+    assert!(!out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("no/such/file.obj"), "{err}");
+    let out = meshlod(&["info", "Cargo.toml"]);
+    assert!(!out.status.success());
+    assert!(String::from_utf8_lossy(&out.stderr).contains("unknown mesh format"));
+}
+
+#[test]
+fn info_json_has_the_contract_fields() {
+    let cow = data_dir().join("cow.obj");
+    let out = meshlod(&["info", cow.to_str().unwrap(), "--json"]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).expect("one JSON object");
+    // The cow of Garland & Heckbert: 2,903 vertices, 5,804 triangles, closed, genus 0.
+    assert_eq!(v["vertices"], 2903);
+    assert_eq!(v["triangles"], 5804);
+    assert_eq!(v["boundary_edges"], 0);
+    assert_eq!(v["non_manifold_edges"], 0);
+    assert_eq!(v["components"], 1);
+    assert_eq!(v["genus"], 0);
+    assert_eq!(v["degenerate_triangles"], 0);
+    assert_eq!(v["duplicate_triangles"], 0);
+    let diag = v["bbox_diagonal"].as_f64().unwrap();
+    // bbox (-4.446,-3.637,-1.701)..(5.998,2.76,1.701) per the manifest.
+    let expect = (10.444f64.powi(2) + 6.397f64.powi(2) + 3.402f64.powi(2)).sqrt();
+    assert!((diag - expect).abs() < 0.01, "diagonal {diag} vs {expect}");
+}
+
+#[test]
+fn info_json_genus_is_null_for_open_meshes() {
+    let bunny = data_dir().join("stanford-bunny.obj");
+    let out = meshlod(&["info", bunny.to_str().unwrap(), "--json"]);
+    assert!(out.status.success());
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(v["triangles"], 69451);
+    assert_eq!(v["boundary_edges"], 223);
+    assert!(v["genus"].is_null());
+    assert_eq!(v["unreferenced_vertices"], 1113);
+}

@@ -1,0 +1,90 @@
+//! Helpers shared by the integration tests: where the repo's test data and the shared
+//! mesh set live, and a parser for the shared set's `MANIFEST.md`.
+#![allow(dead_code)]
+
+use std::path::{Path, PathBuf};
+
+/// `tests/data` at the repository root.
+pub fn data_dir() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../../tests/data")
+}
+
+/// `../shared/meshes` beside the checkout, if present. Prints a notice when absent so a
+/// user's clone shows why the shared-set tests did nothing.
+pub fn shared_meshes(test: &str) -> Option<PathBuf> {
+    let p = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/meshes");
+    if p.join("MANIFEST.md").is_file() {
+        Some(p)
+    } else {
+        eprintln!(
+            "notice: {test}: ../shared/meshes is absent (a user's clone); skipping the shared-set checks"
+        );
+        None
+    }
+}
+
+/// One row of the manifest's mesh table.
+#[derive(Debug, Clone)]
+pub struct ManifestRow {
+    /// Path relative to `shared/meshes`.
+    pub file: String,
+    /// `V` column (position vertices stored), if a number.
+    pub vertices: Option<usize>,
+    /// `T` column (triangles after fan triangulation), if a number.
+    pub triangles: Option<usize>,
+    /// Welded boundary edges.
+    pub boundary_welded: Option<usize>,
+    /// Welded non-manifold edges.
+    pub non_manifold_welded: Option<usize>,
+    /// Welded connected components.
+    pub components_welded: Option<usize>,
+    /// Attributes column (`-` for none).
+    pub attrs: String,
+    /// Notes column.
+    pub notes: String,
+}
+
+fn first_number(s: &str) -> Option<usize> {
+    let digits: String = s
+        .trim()
+        .chars()
+        .take_while(|c| c.is_ascii_digit())
+        .collect();
+    digits.parse().ok()
+}
+
+fn welded(s: &str) -> Option<usize> {
+    s.split('/').nth(1).and_then(first_number)
+}
+
+/// Parses the "Meshes" table of `MANIFEST.md`.
+pub fn manifest_rows(shared: &Path) -> Vec<ManifestRow> {
+    let text = std::fs::read_to_string(shared.join("MANIFEST.md")).expect("MANIFEST.md readable");
+    let mut rows = Vec::new();
+    let mut in_meshes = false;
+    for line in text.lines() {
+        if line.starts_with("## ") {
+            in_meshes = line.trim() == "## Meshes";
+            continue;
+        }
+        if !in_meshes || !line.starts_with("| `") {
+            continue;
+        }
+        let cols: Vec<&str> = line.split('|').map(str::trim).collect();
+        // cols[0] is empty (leading '|').
+        if cols.len() < 13 {
+            continue;
+        }
+        rows.push(ManifestRow {
+            file: cols[1].trim_matches('`').to_string(),
+            vertices: first_number(cols[4]),
+            triangles: first_number(cols[5]),
+            boundary_welded: welded(cols[7]),
+            non_manifold_welded: welded(cols[8]),
+            components_welded: welded(cols[9]),
+            attrs: cols[6].to_string(),
+            notes: cols[12].to_string(),
+        });
+    }
+    rows
+}

@@ -5,6 +5,7 @@
 //! `anyhow`; the exit status is non-zero on any error.
 
 mod info;
+mod simplify;
 
 use clap::{Parser, Subcommand};
 use std::process::ExitCode;
@@ -21,12 +22,15 @@ struct Cli {
 enum Command {
     /// Print counts, attributes, bounding box and topology of a mesh file.
     Info(info::InfoArgs),
+    /// Simplify a mesh (quadric error metric edge collapse) and print a report.
+    Simplify(simplify::SimplifyArgs),
 }
 
 fn main() -> ExitCode {
     let cli = Cli::parse();
     let result = match cli.command {
         Command::Info(args) => info::run(&args),
+        Command::Simplify(args) => simplify::run(&args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -13,7 +13,7 @@
 //!    rejected earlier may have become legal); if soft filters vetoed anything they
 //!    are then switched off. A re-scan that performs nothing ends the run.
 
-use super::heap::{Entry, Heap};
+use super::heap::{Heap, Item};
 use super::{Observer, Outcome, Rejections, StopReason, StopRule};
 use crate::collapse::{OperatorLimits, Preview, Reject, Surface};
 use crate::cost::CostModel;
@@ -56,10 +56,20 @@ impl<C: CostModel + ?Sized> Driver<'_, C> {
         self.version[a as usize].wrapping_add(self.version[b as usize])
     }
 
-    fn entry(&self, a: u32, b: u32) -> Option<Entry> {
+    fn entry(&self, a: u32, b: u32) -> Option<(f64, Item)> {
         let m = self.surface.moves(a, b, self.limits.allow_non_edge)?;
         let c = self.cost.evaluate(self.surface, a, b, &m)?;
-        Some(Entry::new(c.cost, a, b, self.stamp(a, b)))
+        Some((
+            c.cost,
+            Item {
+                removed: c.removed,
+                kept: c.kept,
+                stamp: self.stamp(a, b),
+                error: c.error as f32,
+                position: c.position.map(|x| x as f32),
+                cost: 0.0,
+            },
+        ))
     }
 
     fn resolve(&mut self, mut x: u32) -> u32 {
@@ -82,8 +92,8 @@ impl<C: CostModel + ?Sized> Driver<'_, C> {
             self.surface.neighbours(p, &mut nb);
             for &q in &nb {
                 if q > p {
-                    if let Some(e) = self.entry(p, q) {
-                        self.heap.push_unordered(e);
+                    if let Some((c, e)) = self.entry(p, q) {
+                        self.heap.push_unordered(c, e);
                     }
                 }
             }
@@ -93,8 +103,8 @@ impl<C: CostModel + ?Sized> Driver<'_, C> {
                 let q = self.partners[p][i];
                 let (a, b) = (self.resolve(p as u32), self.resolve(q));
                 if a < b {
-                    if let Some(e) = self.entry(a, b) {
-                        self.heap.push_unordered(e);
+                    if let Some((c, e)) = self.entry(a, b) {
+                        self.heap.push_unordered(c, e);
                     }
                 }
             }
@@ -108,8 +118,8 @@ impl<C: CostModel + ?Sized> Driver<'_, C> {
         let mut nb = std::mem::take(&mut self.scratch);
         self.surface.neighbours(v, &mut nb);
         for &q in &nb {
-            if let Some(e) = self.entry(v, q) {
-                self.heap.push(e);
+            if let Some((c, e)) = self.entry(v, q) {
+                self.heap.push(c, e);
             }
         }
         if !self.partners.is_empty() {
@@ -118,8 +128,8 @@ impl<C: CostModel + ?Sized> Driver<'_, C> {
             for &q in &nb {
                 let q = self.resolve(q);
                 if q != v {
-                    if let Some(e) = self.entry(v, q) {
-                        self.heap.push(e);
+                    if let Some((c, e)) = self.entry(v, q) {
+                        self.heap.push(c, e);
                     }
                 }
             }
@@ -127,9 +137,9 @@ impl<C: CostModel + ?Sized> Driver<'_, C> {
         self.scratch = nb;
     }
 
-    fn valid(&self, e: &Entry) -> bool {
-        let (a, b) = (e.a(), e.b);
-        self.surface.is_alive(a) && self.surface.is_alive(b) && self.stamp(a, b) == e.stamp
+    fn valid(&self, e: &Item) -> bool {
+        let (a, b) = (e.removed, e.kept);
+        self.stamp(a, b) == e.stamp && self.surface.is_alive(a) && self.surface.is_alive(b)
     }
 }
 
@@ -231,26 +241,15 @@ pub fn run<C: CostModel + ?Sized>(
         if !d.valid(&e) {
             continue;
         }
-        let (a, b) = (e.a(), e.b);
-        let Some(m) = d.surface.moves(a, b, d.limits.allow_non_edge) else {
-            continue;
-        };
-        let Some(c) = d.cost.evaluate(d.surface, a, b, &m) else {
-            continue;
-        };
-        if stop.max_error.is_some_and(|me| c.error > me) {
+        if stop.max_error.is_some_and(|me| f64::from(e.error) > me) {
             out.rejections.max_error += 1;
             error_blocked_since_scan += 1;
             continue;
         }
-        let p = [
-            c.position[0] as f32,
-            c.position[1] as f32,
-            c.position[2] as f32,
-        ];
+        let p = e.position;
         if let Err(r) = d
             .surface
-            .check(c.removed, c.kept, p, &d.limits, &mut preview)
+            .check(e.removed, e.kept, p, &d.limits, &mut preview)
         {
             let rj = &mut out.rejections;
             match r {
@@ -282,16 +281,16 @@ pub fn run<C: CostModel + ?Sized>(
             out.rejections.filter += 1;
             continue;
         }
-        let mut record = d.surface.collapse(c.removed, c.kept, p);
-        record.cost = c.cost;
-        record.error = c.error;
+        let mut record = d.surface.collapse(e.removed, e.kept, p);
+        record.cost = f64::from(e.cost);
+        record.error = f64::from(e.error);
         d.cost.collapsed(d.surface, &record);
         out.collapses += 1;
         since_scan += 1;
         if record.non_edge {
             out.non_edge_contractions += 1;
         }
-        out.max_error = out.max_error.max(c.error);
+        out.max_error = out.max_error.max(record.error);
         observer.collapsed(&record);
         if out.collapses % PROGRESS_EVERY == 0 {
             observer.progress(d.surface.live_triangles());
@@ -315,7 +314,7 @@ pub fn run<C: CostModel + ?Sized>(
             let version = &d.version;
             let surface = &*d.surface;
             d.heap.retain(|e| {
-                let (a, b) = (e.a(), e.b);
+                let (a, b) = (e.removed, e.kept);
                 surface.is_alive(a)
                     && surface.is_alive(b)
                     && version[a as usize].wrapping_add(version[b as usize]) == e.stamp

@@ -1,134 +1,174 @@
-//! A binary min-heap of collapse candidates with lazy invalidation.
+//! A 4-ary min-heap of collapse candidates with lazy invalidation.
 //!
-//! Entries are 16 bytes: the cost as `f32` bits, the pair, and a stamp (the sum of
-//! the two points' version counters when the entry was pushed). Versions only grow,
-//! so the sum is unchanged exactly when neither point changed: a popped entry whose
-//! stamp differs is stale and dropped. Ties are broken by the pair ids, so the order
-//! is total and the run deterministic.
+//! The heap array holds only 8-byte keys, `(cost as f32 bits) << 32 | slot`, so a
+//! node's four children share half a cache line; the candidate itself (pair, stamp,
+//! position, error) lives in a slab at `slot`, touched once when popped. The cost
+//! of a non-negative `f32` orders like its bits; ties are broken by the slot, so
+//! the order is total and, slots being handed out deterministically, every run is
+//! the same.
+//!
+//! Lazy invalidation: an entry carries a stamp (the sum of its two points' version
+//! counters when pushed). Versions only grow, so the sum is unchanged exactly when
+//! neither point changed; a popped entry with another stamp is stale and dropped.
 
-/// One queued candidate.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub(crate) struct Entry {
-    /// `(cost bits << 32) | a`: the cost of a non-negative `f32` orders like its bits.
-    pub key: u64,
-    /// The second point.
-    pub b: u32,
+/// A queued candidate.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub(crate) struct Item {
+    /// The point that goes.
+    pub removed: u32,
+    /// The point that stays.
+    pub kept: u32,
     /// Sum of the two points' versions at push time.
     pub stamp: u32,
-}
-
-impl Entry {
-    pub(crate) fn new(cost: f64, a: u32, b: u32, stamp: u32) -> Self {
-        let c = if cost.is_nan() {
-            f32::INFINITY
-        } else {
-            (cost.max(0.0) as f32).max(0.0)
-        };
-        Self {
-            key: (u64::from(c.to_bits()) << 32) | u64::from(a),
-            b,
-            stamp,
-        }
-    }
-
-    #[inline]
-    pub(crate) fn a(&self) -> u32 {
-        self.key as u32
-    }
-
-    #[inline]
-    fn less(&self, o: &Self) -> bool {
-        (self.key, self.b) < (o.key, o.b)
-    }
+    /// The error (distance) of the candidate.
+    pub error: f32,
+    /// Where `kept` goes.
+    pub position: [f32; 3],
+    /// The cost.
+    pub cost: f32,
 }
 
 /// The heap.
 #[derive(Debug, Default)]
 pub(crate) struct Heap {
-    v: Vec<Entry>,
+    keys: Vec<u64>,
+    slab: Vec<Item>,
+    free: Vec<u32>,
+}
+
+#[inline]
+fn cost_bits(cost: f64) -> u32 {
+    let c = if cost.is_nan() {
+        f32::INFINITY
+    } else {
+        (cost.max(0.0) as f32).max(0.0)
+    };
+    c.to_bits()
 }
 
 impl Heap {
     pub(crate) fn with_capacity(n: usize) -> Self {
         Self {
-            v: Vec::with_capacity(n),
+            keys: Vec::with_capacity(n),
+            slab: Vec::with_capacity(n),
+            free: Vec::new(),
         }
     }
 
     pub(crate) fn len(&self) -> usize {
-        self.v.len()
+        self.keys.len()
+    }
+
+    fn store(&mut self, cost: f64, mut item: Item) -> u64 {
+        let bits = cost_bits(cost);
+        item.cost = f32::from_bits(bits);
+        let slot = match self.free.pop() {
+            Some(s) => {
+                self.slab[s as usize] = item;
+                s
+            }
+            None => {
+                self.slab.push(item);
+                (self.slab.len() - 1) as u32
+            }
+        };
+        (u64::from(bits) << 32) | u64::from(slot)
     }
 
     /// Appends without restoring the heap order (call [`Self::heapify`] after).
-    pub(crate) fn push_unordered(&mut self, e: Entry) {
-        self.v.push(e);
+    pub(crate) fn push_unordered(&mut self, cost: f64, item: Item) {
+        let k = self.store(cost, item);
+        self.keys.push(k);
     }
 
     pub(crate) fn heapify(&mut self) {
-        let n = self.v.len();
-        for i in (0..n / 2).rev() {
-            self.sift_down(i);
+        let n = self.keys.len();
+        if n > 1 {
+            for i in (0..=(n - 2) / 4).rev() {
+                self.sift_down(i);
+            }
         }
     }
 
-    pub(crate) fn push(&mut self, e: Entry) {
-        self.v.push(e);
-        let mut i = self.v.len() - 1;
+    pub(crate) fn push(&mut self, cost: f64, item: Item) {
+        let k = self.store(cost, item);
+        self.keys.push(k);
+        let mut i = self.keys.len() - 1;
         while i > 0 {
-            let p = (i - 1) / 2;
-            if e.less(&self.v[p]) {
-                self.v[i] = self.v[p];
+            let p = (i - 1) / 4;
+            if k < self.keys[p] {
+                self.keys[i] = self.keys[p];
                 i = p;
             } else {
                 break;
             }
         }
-        self.v[i] = e;
+        self.keys[i] = k;
     }
 
-    pub(crate) fn pop(&mut self) -> Option<Entry> {
-        let last = self.v.pop()?;
-        if self.v.is_empty() {
-            return Some(last);
-        }
-        let top = self.v[0];
-        self.v[0] = last;
-        self.sift_down(0);
-        Some(top)
+    /// Removes and returns the cheapest item.
+    pub(crate) fn pop(&mut self) -> Option<Item> {
+        let last = self.keys.pop()?;
+        let top = if self.keys.is_empty() {
+            last
+        } else {
+            let top = self.keys[0];
+            self.keys[0] = last;
+            self.sift_down(0);
+            top
+        };
+        let slot = top as u32;
+        self.free.push(slot);
+        Some(self.slab[slot as usize])
     }
 
     fn sift_down(&mut self, mut i: usize) {
-        let n = self.v.len();
-        let e = self.v[i];
+        let n = self.keys.len();
+        let k = self.keys[i];
         loop {
-            let l = 2 * i + 1;
-            if l >= n {
+            let c0 = 4 * i + 1;
+            if c0 >= n {
                 break;
             }
-            let r = l + 1;
-            let c = if r < n && self.v[r].less(&self.v[l]) {
-                r
-            } else {
-                l
-            };
-            if self.v[c].less(&e) {
-                self.v[i] = self.v[c];
+            let end = (c0 + 4).min(n);
+            let mut c = c0;
+            let mut ck = self.keys[c0];
+            for j in c0 + 1..end {
+                let kj = self.keys[j];
+                if kj < ck {
+                    ck = kj;
+                    c = j;
+                }
+            }
+            if ck < k {
+                self.keys[i] = ck;
                 i = c;
             } else {
                 break;
             }
         }
-        self.v[i] = e;
+        self.keys[i] = k;
     }
 
-    /// Keeps only entries for which `keep` is true and restores the heap order.
-    pub(crate) fn retain(&mut self, keep: impl FnMut(&Entry) -> bool) {
-        self.v.retain(keep);
+    /// Keeps only items for which `keep` is true and restores the heap order.
+    pub(crate) fn retain(&mut self, mut keep: impl FnMut(&Item) -> bool) {
+        let slab = &self.slab;
+        let free = &mut self.free;
+        self.keys.retain(|&k| {
+            let s = k as u32;
+            let ok = keep(&slab[s as usize]);
+            if !ok {
+                free.push(s);
+            }
+            ok
+        });
         self.heapify();
     }
 
     pub(crate) fn clear(&mut self) {
-        self.v.clear();
+        self.keys.clear();
+        self.slab.clear();
+        self.free.clear();
     }
 }
 
@@ -136,31 +176,44 @@ impl Heap {
 mod tests {
     use super::*;
 
-    #[test]
-    fn pops_in_cost_then_id_order() {
-        let mut h = Heap::default();
-        h.push(Entry::new(2.0, 5, 6, 0));
-        h.push(Entry::new(1.0, 9, 1, 0));
-        h.push(Entry::new(1.0, 3, 4, 0));
-        h.push(Entry::new(1.0, 3, 2, 0));
-        h.push(Entry::new(f64::NAN, 0, 1, 0));
-        h.push(Entry::new(0.0, 7, 8, 0));
-        let order: Vec<(u32, u32)> = std::iter::from_fn(|| h.pop())
-            .map(|e| (e.a(), e.b))
-            .collect();
-        assert_eq!(order, vec![(7, 8), (3, 2), (3, 4), (9, 1), (5, 6), (0, 1)]);
+    fn item(a: u32) -> Item {
+        Item {
+            removed: a,
+            ..Item::default()
+        }
     }
 
     #[test]
-    fn heapify_and_retain() {
+    fn pops_in_cost_then_push_order() {
+        let mut h = Heap::default();
+        for (c, a) in [
+            (2.0, 5),
+            (1.0, 9),
+            (1.0, 3),
+            (f64::NAN, 0),
+            (0.0, 7),
+            (-1.0, 8),
+        ] {
+            h.push(c, item(a));
+        }
+        let order: Vec<u32> = std::iter::from_fn(|| h.pop()).map(|e| e.removed).collect();
+        // -1 clamps to 0 and ties with 0.0 (pushed before it); NaN sorts last.
+        assert_eq!(order, vec![7, 8, 9, 3, 5, 0]);
+    }
+
+    #[test]
+    fn heapify_retain_and_slot_reuse() {
         let mut h = Heap::with_capacity(8);
-        for (i, c) in [5.0, 3.0, 8.0, 1.0, 4.0].iter().enumerate() {
-            h.push_unordered(Entry::new(*c, i as u32, 0, 0));
+        for (i, c) in [5.0, 3.0, 8.0, 1.0, 4.0, 9.0, 7.0].iter().enumerate() {
+            h.push_unordered(*c, item(i as u32));
         }
         h.heapify();
-        h.retain(|e| e.a() != 3);
-        assert_eq!(h.len(), 4);
-        let order: Vec<u32> = std::iter::from_fn(|| h.pop()).map(|e| e.a()).collect();
-        assert_eq!(order, vec![1, 4, 0, 2]);
+        h.retain(|e| e.removed != 3);
+        assert_eq!(h.len(), 6);
+        assert_eq!(h.pop().map(|e| e.removed), Some(1));
+        h.push(0.5, item(42));
+        let order: Vec<u32> = std::iter::from_fn(|| h.pop()).map(|e| e.removed).collect();
+        assert_eq!(order, vec![42, 4, 0, 6, 2, 5]);
+        assert!(h.slab.len() <= 7);
     }
 }

@@ -55,7 +55,7 @@ pub struct SimplifyArgs {
     /// change.
     #[arg(long, value_name = "T")]
     pub pair_threshold: Option<f64>,
-    /// Weight of the boundary constraint planes (default 1).
+    /// Weight of the boundary constraint planes (default 10).
     #[arg(long, value_name = "W")]
     pub boundary_weight: Option<f64>,
     /// Refuse collapses that turn a triangle's normal by more than DEG degrees.

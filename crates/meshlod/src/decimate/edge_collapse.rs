@@ -28,7 +28,7 @@ pub struct EdgeCollapseOptions {
     /// When to stop.
     pub stop: StopRule,
     /// Extra non-edge pairs to consider (point ids), e.g. from
-    /// [`crate::simplify`]'s pair threshold.
+    /// [`crate::simplify::SimplifyOptions::pair_threshold`].
     pub extra_pairs: Vec<[u32; 2]>,
 }
 

@@ -4,7 +4,9 @@
 //! the library's options and runs. Errors carry the file name and are printed by
 //! `anyhow`; the exit status is non-zero on any error.
 
+mod heatmap;
 mod info;
+mod measure;
 mod simplify;
 
 use clap::{Parser, Subcommand};
@@ -22,6 +24,9 @@ struct Cli {
 enum Command {
     /// Print counts, attributes, bounding box and topology of a mesh file.
     Info(info::InfoArgs),
+    /// Measure the distance between two meshes: one-sided and symmetric Hausdorff,
+    /// mean and RMS (Metro-style vertex + edge + face sampling).
+    Measure(measure::MeasureArgs),
     /// Simplify a mesh (quadric error metric edge collapse) and print a report.
     Simplify(simplify::SimplifyArgs),
 }
@@ -30,6 +35,7 @@ fn main() -> ExitCode {
     let cli = Cli::parse();
     let result = match cli.command {
         Command::Info(args) => info::run(&args),
+        Command::Measure(args) => measure::run(&args),
         Command::Simplify(args) => simplify::run(&args),
     };
     match result {

@@ -93,3 +93,43 @@ fn info_json_genus_is_null_for_open_meshes() {
     assert!(v["genus"].is_null());
     assert_eq!(v["unreferenced_vertices"], 1113);
 }
+
+#[test]
+fn measure_a_mesh_against_itself_and_write_a_heatmap() {
+    let m = data_dir().join("stratocaster.ply");
+    let dir = tempfile::tempdir().unwrap();
+    let heat = dir.path().join("heat.ply");
+    let out = meshlod(&[
+        "measure",
+        m.to_str().unwrap(),
+        m.to_str().unwrap(),
+        "--samples",
+        "20000",
+        "--json",
+        "--heatmap",
+        heat.to_str().unwrap(),
+        "--screen-height",
+        "1080",
+        "--distance",
+        "100",
+    ]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    // Coordinates up to ~340 in f32: sample-to-surface noise stays below 1e-5 units.
+    assert!(v["hausdorff"].as_f64().unwrap() < 1e-5, "{v}");
+    assert!(v["relative_to_bbox_diagonal"]["mean"].as_f64().unwrap() < 1e-8);
+    // 4,500 vertices + 20,000 on edges + 20,000 on faces, each way.
+    assert_eq!(v["a_to_b"]["samples"], 44_500);
+    assert_eq!(v["samples"], 89_000);
+    assert!(v["screen"]["distance_for_one_pixel"].as_f64().is_some());
+    for key in ["mean", "rms", "bbox_diagonal"] {
+        assert!(v[key].is_number(), "{key} missing");
+    }
+    let back = meshlod::read_mesh(&heat).unwrap();
+    assert_eq!(back.positions.len(), 4500);
+    assert!(back.attributes.colors.is_some());
+}

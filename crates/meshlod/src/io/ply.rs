@@ -81,6 +81,40 @@ pub fn read(data: &[u8]) -> Result<Mesh, FormatError> {
 /// range, a non-finite coordinate, an attribute stream of the wrong length): such a
 /// mesh would give a file no reader accepts.
 pub fn write(mesh: &Mesh, ascii: bool, out: &mut Vec<u8>) -> Result<(), FormatError> {
+    write_impl(mesh, None, ascii, out)
+}
+
+/// Writes `mesh` as PLY like [`write`], with one more vertex property, `float quality`
+/// (MeshLab's per-vertex scalar), holding `quality[i]` for vertex `i`. Used for error
+/// heat maps.
+///
+/// # Errors
+/// As [`write`]; also when `quality` does not have one value per vertex.
+pub fn write_with_quality(
+    mesh: &Mesh,
+    quality: &[f32],
+    ascii: bool,
+    out: &mut Vec<u8>,
+) -> Result<(), FormatError> {
+    if quality.len() != mesh.positions.len() {
+        return Err(FormatError::new(
+            Location::File,
+            format!(
+                "{} quality values for {} vertices",
+                quality.len(),
+                mesh.positions.len()
+            ),
+        ));
+    }
+    write_impl(mesh, Some(quality), ascii, out)
+}
+
+fn write_impl(
+    mesh: &Mesh,
+    quality: Option<&[f32]>,
+    ascii: bool,
+    out: &mut Vec<u8>,
+) -> Result<(), FormatError> {
     mesh.validate().map_err(|e| {
         FormatError::new(Location::File, format!("cannot write an invalid mesh: {e}"))
     })?;
@@ -113,6 +147,9 @@ pub fn write(mesh: &Mesh, ascii: bool, out: &mut Vec<u8>) -> Result<(), FormatEr
     if uv.is_some() {
         h.push_str("property float u\nproperty float v\n");
     }
+    if quality.is_some() {
+        h.push_str("property float quality\n");
+    }
     h.push_str(&format!("element face {}\n", mesh.triangles.len()));
     h.push_str(if wide {
         "property list uchar uint vertex_indices\n"
@@ -127,7 +164,8 @@ pub fn write(mesh: &Mesh, ascii: bool, out: &mut Vec<u8>) -> Result<(), FormatEr
     let vertex_bytes = 12
         + if normals.is_some() { 12 } else { 0 }
         + if colors.is_some() { 4 } else { 0 }
-        + if uv.is_some() { 8 } else { 0 };
+        + if uv.is_some() { 8 } else { 0 }
+        + if quality.is_some() { 4 } else { 0 };
     let face_bytes = 13 + if groups.is_some() { 4 } else { 0 };
     let estimate = if ascii {
         n * vertex_bytes * 3 + mesh.triangles.len() * 30
@@ -142,6 +180,7 @@ pub fn write(mesh: &Mesh, ascii: bool, out: &mut Vec<u8>) -> Result<(), FormatEr
         let nrm = normals.and_then(|s| s.get(i));
         let col = colors.and_then(|s| s.get(i));
         let tex = uv.and_then(|s| s.get(i));
+        let q = quality.and_then(|s| s.get(i));
         if ascii {
             let mut first = true;
             let mut num = |out: &mut Vec<u8>, v: f32| {
@@ -164,6 +203,9 @@ pub fn write(mesh: &Mesh, ascii: bool, out: &mut Vec<u8>) -> Result<(), FormatEr
             if let Some(tex) = tex {
                 tex.iter().for_each(|&v| num(out, v));
             }
+            if let Some(&q) = q {
+                num(out, q);
+            }
             out.push(b'\n');
         } else {
             p.iter()
@@ -178,6 +220,9 @@ pub fn write(mesh: &Mesh, ascii: bool, out: &mut Vec<u8>) -> Result<(), FormatEr
             if let Some(tex) = tex {
                 tex.iter()
                     .for_each(|v| out.extend_from_slice(&v.to_le_bytes()));
+            }
+            if let Some(q) = q {
+                out.extend_from_slice(&q.to_le_bytes());
             }
         }
     }

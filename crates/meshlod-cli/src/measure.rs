@@ -1,0 +1,204 @@
+//! `meshlod measure A B`: Metro-class distances between two meshes.
+
+use anyhow::{bail, Result};
+use meshlod::metrics::{self, bvh::Bvh, Distances, OneSided, SamplingOptions};
+use meshlod::read_mesh;
+use serde::Serialize;
+use std::path::PathBuf;
+use std::time::Instant;
+
+/// Arguments of `meshlod measure`.
+#[derive(Debug, clap::Args)]
+pub struct MeasureArgs {
+    /// The reference mesh (relative errors are fractions of its bounding-box diagonal).
+    pub a: PathBuf,
+    /// The mesh compared with it (e.g. a simplified version).
+    pub b: PathBuf,
+    /// Samples on edges and as many on faces, per direction, besides every vertex
+    /// (MeshLab's `samplenum`). Default: max(1,000,000, 10 × triangles).
+    #[arg(long)]
+    pub samples: Option<usize>,
+    /// Seed for the placement of face samples.
+    #[arg(long, default_value_t = 0)]
+    pub seed: u64,
+    /// Print one JSON object instead of text.
+    #[arg(long)]
+    pub json: bool,
+    /// Write B with each vertex's distance to A as a PLY `quality` property and a
+    /// blue→red colour map.
+    #[arg(long, value_name = "OUT.ply")]
+    pub heatmap: Option<PathBuf>,
+    /// Screen height in pixels, for screen-space error.
+    #[arg(long, value_name = "PX")]
+    pub screen_height: Option<f64>,
+    /// Vertical field of view in degrees, for screen-space error.
+    #[arg(long, value_name = "DEG", default_value_t = 60.0)]
+    pub fov: f64,
+    /// Viewing distance (mesh units), for screen-space error.
+    #[arg(long, value_name = "D")]
+    pub distance: Option<f64>,
+}
+
+#[derive(Serialize)]
+struct Relative {
+    hausdorff: f64,
+    mean: f64,
+    rms: f64,
+}
+
+#[derive(Serialize)]
+struct Screen {
+    screen_height_px: f64,
+    fov_degrees: f64,
+    /// Pixels covered by the Hausdorff distance at `distance`.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    distance: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pixels: Option<f64>,
+    /// Distance at which the Hausdorff distance covers one pixel.
+    distance_for_one_pixel: f64,
+}
+
+#[derive(Serialize)]
+struct Report {
+    a: String,
+    b: String,
+    units: &'static str,
+    hausdorff: f64,
+    mean: f64,
+    rms: f64,
+    a_to_b: OneSided,
+    b_to_a: OneSided,
+    relative_to_bbox_diagonal: Relative,
+    relative_to_max_extent: Relative,
+    bbox_diagonal: f64,
+    max_extent: f64,
+    samples: u64,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    screen: Option<Screen>,
+    seconds: f64,
+}
+
+fn relative(d: &Distances, scale: f64) -> Relative {
+    let s = d.scaled(scale);
+    Relative {
+        hausdorff: s.hausdorff,
+        mean: s.mean,
+        rms: s.rms,
+    }
+}
+
+/// Runs the measurement and prints the report.
+///
+/// # Errors
+/// A file cannot be read, or the heat map cannot be written.
+pub fn run(args: &MeasureArgs) -> Result<()> {
+    let a = read_mesh(&args.a)?;
+    let b = read_mesh(&args.b)?;
+    if a.triangles.is_empty() || b.triangles.is_empty() {
+        bail!(
+            "{}: has no triangles to measure",
+            if a.triangles.is_empty() {
+                args.a.display()
+            } else {
+                args.b.display()
+            }
+        );
+    }
+    let options = SamplingOptions {
+        samples: args.samples,
+        seed: args.seed,
+        ..SamplingOptions::default()
+    };
+    let t0 = Instant::now();
+    let d = metrics::hausdorff(&a, &b, &options);
+    let seconds = t0.elapsed().as_secs_f64();
+    if let Some(out) = &args.heatmap {
+        let bvh = Bvh::build(&a.positions, &a.triangles);
+        let dist = metrics::vertex_distances(&b, &bvh);
+        crate::heatmap::write(out, &b, &dist)?;
+    }
+    let screen = args.screen_height.map(|h| Screen {
+        screen_height_px: h,
+        fov_degrees: args.fov,
+        distance: args.distance,
+        pixels: args
+            .distance
+            .map(|dist| metrics::screen_space_error(d.hausdorff, h, args.fov, dist)),
+        distance_for_one_pixel: metrics::distance_for_pixels(d.hausdorff, 1.0, h, args.fov),
+    });
+    let report = Report {
+        a: args.a.display().to_string(),
+        b: args.b.display().to_string(),
+        units: "mesh units; relative_* are fractions of A's bounding-box diagonal / largest side",
+        hausdorff: d.hausdorff,
+        mean: d.mean,
+        rms: d.rms,
+        a_to_b: d.a_to_b,
+        b_to_a: d.b_to_a,
+        relative_to_bbox_diagonal: relative(&d, d.bbox_diagonal),
+        relative_to_max_extent: relative(&d, d.max_extent),
+        bbox_diagonal: d.bbox_diagonal,
+        max_extent: d.max_extent,
+        samples: d.a_to_b.samples + d.b_to_a.samples,
+        screen,
+        seconds,
+    };
+    if args.json {
+        println!("{}", serde_json::to_string(&report)?);
+        return Ok(());
+    }
+    let pct = |x: f64| 100.0 * x / d.bbox_diagonal.max(f64::MIN_POSITIVE);
+    println!("A: {}", report.a);
+    println!("B: {}", report.b);
+    println!(
+        "bounding-box diagonal of A: {:.6} (largest side {:.6})",
+        d.bbox_diagonal, d.max_extent
+    );
+    println!(
+        "{:<14}{:>14}{:>14}{:>14}{:>12}",
+        "", "max", "mean", "rms", "samples"
+    );
+    for (name, o) in [("A -> B", &d.a_to_b), ("B -> A", &d.b_to_a)] {
+        println!(
+            "{name:<14}{:>14.6e}{:>14.6e}{:>14.6e}{:>12}",
+            o.max, o.mean, o.rms, o.samples
+        );
+    }
+    println!(
+        "{:<14}{:>14.6e}{:>14.6e}{:>14.6e}",
+        "symmetric", d.hausdorff, d.mean, d.rms
+    );
+    println!(
+        "{:<14}{:>13.4}%{:>13.5}%{:>13.5}%   of the bbox diagonal",
+        "relative",
+        pct(d.hausdorff),
+        pct(d.mean),
+        pct(d.rms)
+    );
+    let far = if d.a_to_b.max >= d.b_to_a.max {
+        &d.a_to_b
+    } else {
+        &d.b_to_a
+    };
+    println!(
+        "max at ({:.6}, {:.6}, {:.6})",
+        far.max_at[0], far.max_at[1], far.max_at[2]
+    );
+    if let Some(s) = &report.screen {
+        if let Some(px) = s.pixels {
+            println!(
+                "screen: {px:.3} px at distance {} ({} px high, fov {}°)",
+                s.distance.unwrap_or(0.0),
+                s.screen_height_px,
+                s.fov_degrees
+            );
+        }
+        println!(
+            "screen: the Hausdorff error covers one pixel at distance {:.6}",
+            s.distance_for_one_pixel
+        );
+    }
+    println!("time: {seconds:.3} s");
+    Ok(())
+}

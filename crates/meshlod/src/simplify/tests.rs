@@ -567,3 +567,126 @@ proptest! {
         prop_assert_eq!(s.topology.duplicate_triangles, 0);
     }
 }
+
+/// A closed tetrahedron cannot lose a triangle without becoming degenerate: the run
+/// stops with "no legal collapse left" and says why.
+#[test]
+fn tetrahedron_stops_with_no_legal_collapse() {
+    let m = Mesh::from_triangles(
+        vec![
+            [0.0, 0.0, 0.0],
+            [1.0, 0.0, 0.0],
+            [0.0, 1.0, 0.0],
+            [0.0, 0.0, 1.0],
+        ],
+        vec![[0, 2, 1], [0, 1, 3], [1, 2, 3], [0, 3, 2]],
+    );
+    let (out, report) = simplify(&m, &SimplifyOptions::default().with_target_triangles(0)).unwrap();
+    assert_eq!(out.triangles.len(), 4);
+    assert_eq!(report.stop_reason, StopReason::NoLegalCollapse);
+    assert!(
+        report.stop_detail.contains("no legal collapse left"),
+        "{}",
+        report.stop_detail
+    );
+    assert!(report.rejections.duplicate > 0);
+}
+
+/// The recorder sees every collapse; half-edge collapses keep the survivor in place,
+/// and replaying the removed points accounts for the vertex count.
+#[test]
+fn recorder_and_progress_observe_the_run() {
+    use crate::decimate::{CollapseRecorder, Observer};
+    struct Both {
+        rec: CollapseRecorder,
+        progress: Vec<usize>,
+        started: Option<(usize, usize)>,
+    }
+    impl Observer for Both {
+        fn started(&mut self, t: usize, target: usize) {
+            self.started = Some((t, target));
+        }
+        fn collapsed(&mut self, r: &crate::collapse::CollapseRecord) {
+            self.rec.collapsed(r);
+        }
+        fn progress(&mut self, t: usize) {
+            self.progress.push(t);
+        }
+    }
+    let grid = generate::grid(16, 16, |x, y| 0.1 * x * y);
+    let mut obs = Both {
+        rec: CollapseRecorder::default(),
+        progress: Vec::new(),
+        started: None,
+    };
+    let s =
+        simplify_observed(&grid, &SimplifyOptions::default().with_ratio(0.2), &mut obs).unwrap();
+    assert_eq!(obs.started, Some((512, 102)));
+    assert_eq!(obs.rec.records.len(), s.report.collapses);
+    assert_eq!(obs.progress.last(), Some(&s.mesh.triangles.len()));
+    let mut removed: Vec<u32> = obs.rec.records.iter().map(|r| r.removed).collect();
+    removed.sort_unstable();
+    removed.dedup();
+    assert_eq!(removed.len(), s.report.collapses);
+    assert_eq!(s.mesh.positions.len(), grid.positions.len() - removed.len());
+    // Border points only slide along the border: some collapses are half-edge ones.
+    assert!(obs
+        .rec
+        .records
+        .iter()
+        .any(|r| r.position == r.kept_old_position));
+    for r in &obs.rec.records {
+        assert!(r.error >= 0.0 && r.cost >= 0.0);
+        assert!(r.removed_triangles[0] != crate::collapse::DEAD);
+    }
+    // vertex_source maps every output vertex to an input vertex.
+    assert_eq!(s.vertex_source.len(), s.mesh.positions.len());
+    assert!(s
+        .vertex_source
+        .iter()
+        .all(|&v| (v as usize) < grid.positions.len()));
+}
+
+/// Filters veto: with a 5° normal limit a curved surface cannot be simplified as
+/// far as without, and the report says the filters refused collapses.
+#[test]
+fn normal_deviation_filter_limits_simplification() {
+    let sphere = generate::icosphere(3);
+    let (free, _) = simplify(&sphere, &SimplifyOptions::default().with_ratio(0.05)).unwrap();
+    let (tight, report) = simplify(
+        &sphere,
+        &SimplifyOptions::default()
+            .with_ratio(0.05)
+            .with_max_normal_deviation(5.0),
+    )
+    .unwrap();
+    assert!(tight.triangles.len() > free.triangles.len());
+    assert_eq!(report.stop_reason, StopReason::NoLegalCollapse);
+    assert!(report.rejections.filter > 0);
+    check_invariants(&sphere, &tight, &report);
+}
+
+/// Placement: with `Endpoint` no vertex moves (every output position is an input
+/// position); with `Midpoint` interior vertices may move.
+#[test]
+fn endpoint_placement_keeps_input_positions() {
+    let torus = generate::torus(24, 12, 2.0, 0.6);
+    let (out, report) = simplify(
+        &torus,
+        &SimplifyOptions::default()
+            .with_ratio(0.2)
+            .with_placement(Placement::Endpoint),
+    )
+    .unwrap();
+    check_invariants(&torus, &out, &report);
+    assert!(out.positions.iter().all(|p| torus.positions.contains(p)));
+    let (mid, report) = simplify(
+        &torus,
+        &SimplifyOptions::default()
+            .with_ratio(0.2)
+            .with_placement(Placement::Midpoint),
+    )
+    .unwrap();
+    check_invariants(&torus, &mid, &report);
+    assert!(mid.positions.iter().any(|p| !torus.positions.contains(p)));
+}

@@ -14,7 +14,8 @@
 //!   and `v` are exactly the apexes of the triangles on edge `uv`, and an interior
 //!   edge joining two boundary vertices is never collapsed — so a manifold
 //!   neighbourhood stays manifold, no boundary edge and no non-manifold edge is
-//!   created and no hole is closed;
+//!   created and no hole is closed; and no point loses its last triangle, so no
+//!   small component is collapsed away;
 //! - **no duplicate triangles** (the tetrahedron case the link condition misses);
 //! - **seams**: the wedges (attribute vertices) of `u` map onto wedges of `v`
 //!   consistently on each side of a seam;
@@ -42,8 +43,9 @@ pub enum Reject {
     Kind,
     /// The edge has more than two triangles (non-manifold input edge).
     NonManifoldEdge,
-    /// The link condition fails: the merge would pinch the surface, close a hole or
-    /// glue two boundary vertices across an interior edge.
+    /// The link condition fails: the merge would pinch the surface, close a hole,
+    /// glue two boundary vertices across an interior edge, or make a point vanish
+    /// (the last triangle of a small component).
     Link,
     /// Two triangles over the same three vertices would result.
     Duplicate,

@@ -888,6 +888,16 @@ impl Surface {
         if dying == 2 && self.boundary[u as usize] && self.boundary[v as usize] {
             return Err(Reject::Link);
         }
+        // Nothing may vanish: the survivor and every apex keep a triangle (so a
+        // small component is never collapsed away).
+        let left = self.fan_len[u as usize] as usize + self.fan_len[v as usize] as usize;
+        if left <= 2 * dying
+            || opp
+                .iter()
+                .any(|&a| a != DEAD && self.fan_len[a as usize] <= 1)
+        {
+            return Err(Reject::Link);
+        }
         // Fan of v: the link condition (common neighbours are exactly the apexes; a
         // non-edge pair may have none) and the triangles that survive with v moved.
         let pv = f64x3(self.pos[v as usize]);

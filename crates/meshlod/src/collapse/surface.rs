@@ -898,6 +898,22 @@ impl Surface {
         {
             return Err(Reject::Link);
         }
+        // An apex keeps an edge to the survivor (else a non-manifold apex joining
+        // two parts would lose this side, splitting a component): some other
+        // triangle around it must touch u or v.
+        for (i, &a) in opp.iter().enumerate().take(dying) {
+            if self.kind[a as usize] != VertexKind::Manifold {
+                let keeps = self.fan(a).iter().any(|&t| {
+                    t != dying_t[i] && {
+                        let tt = self.tri[t as usize];
+                        tt.contains(&u) || tt.contains(&v)
+                    }
+                });
+                if !keeps {
+                    return Err(Reject::Link);
+                }
+            }
+        }
         // Fan of v: the link condition (common neighbours are exactly the apexes; a
         // non-edge pair may have none) and the triangles that survive with v moved.
         let pv = f64x3(self.pos[v as usize]);

@@ -283,3 +283,39 @@ fn build_repairs() {
     let st = MeshStats::of(&m);
     assert_eq!(st.topology.degenerate_triangles, 2);
 }
+
+/// Three triangles chained through two bow-tie points: (u,v,x) links the fan of v
+/// (v,y,z) with the fan of x (x,s,t). Removing u along the border edge u–v would
+/// delete (u,v,x) and split the component in two, so it is refused.
+/// ```text
+///   y--z       s--t
+///    \ |        | /
+///      v --u-- x        (u,v,x) is the only link between v's and x's parts
+/// ```
+#[test]
+fn collapse_never_splits_a_component() {
+    let m = Mesh::from_triangles(
+        vec![
+            [0.0, 0.0, 0.0],  // 0 x
+            [-1.0, 0.5, 0.0], // 1 u
+            [-2.0, 0.0, 0.0], // 2 v
+            [-3.0, 1.0, 0.0], // 3 y
+            [-2.0, 1.0, 0.0], // 4 z
+            [1.0, 1.0, 0.0],  // 5 s
+            [2.0, 1.0, 0.0],  // 6 t
+        ],
+        vec![[1, 2, 0], [2, 3, 4], [0, 5, 6]],
+    );
+    let mut s = surface(&m);
+    assert_eq!(s.kind(1), VertexKind::Border);
+    assert_eq!(s.kind(2), VertexKind::Complex);
+    assert_eq!(s.kind(0), VertexKind::Complex);
+    let mv = s.moves(1, 2, false).unwrap();
+    assert!(mv.a_to_b);
+    let mut pv = Preview::default();
+    assert_eq!(
+        s.check(1, 2, s.position(2), &limits(), &mut pv),
+        Err(Reject::Link)
+    );
+    assert_eq!(MeshStats::of(&m).topology.components, 1);
+}

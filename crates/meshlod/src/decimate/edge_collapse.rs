@@ -9,13 +9,15 @@
 //!    filters, and performed.
 //! 3. The survivor's version is bumped and its pairs are re-queued: O(valence) work
 //!    per collapse.
+//!    When a merged placement would fold a triangle over, the same pair is queued
+//!    again restricted to half-edge collapses onto either end, at that cost.
 //! 4. When the queue runs dry before the target, all pairs are queued again (pairs
 //!    rejected earlier may have become legal); if soft filters vetoed anything they
 //!    are then switched off. A re-scan that performs nothing ends the run.
 
 use super::heap::{Heap, Item};
 use super::{Observer, Outcome, Rejections, StopReason, StopRule};
-use crate::collapse::{OperatorLimits, Preview, Reject, Surface};
+use crate::collapse::{Merge, Moves, OperatorLimits, Preview, Reject, Surface};
 use crate::cost::CostModel;
 use crate::filter::Filter;
 
@@ -52,22 +54,42 @@ struct Driver<'a, C: CostModel + ?Sized> {
 
 impl<C: CostModel + ?Sized> Driver<'_, C> {
     #[inline]
-    fn stamp(&self, a: u32, b: u32) -> u32 {
-        self.version[a as usize].wrapping_add(self.version[b as usize])
+    /// Stamp of an entry for `(a, b)`: the sum of the versions, shifted, with the
+    /// low bit saying "endpoint placement only" (a fallback entry).
+    #[inline]
+    fn stamp(&self, a: u32, b: u32, endpoint_only: bool) -> u32 {
+        (self.version[a as usize].wrapping_add(self.version[b as usize]) << 1)
+            | u32::from(endpoint_only)
     }
 
-    fn entry(&self, a: u32, b: u32) -> Option<Item> {
-        let m = self.surface.moves(a, b, self.limits.allow_non_edge)?;
+    /// The moves of `(a, b)`, restricted to half-edge collapses for a fallback entry.
+    fn moves(&self, a: u32, b: u32, endpoint_only: bool) -> Option<Moves> {
+        let mut m = self.surface.moves(a, b, self.limits.allow_non_edge)?;
+        if endpoint_only {
+            if !(m.a_to_b || m.b_to_a) {
+                return None;
+            }
+            m.merge = Merge::No;
+        }
+        Some(m)
+    }
+
+    fn entry_with(&self, a: u32, b: u32, endpoint_only: bool) -> Option<Item> {
+        let m = self.moves(a, b, endpoint_only)?;
         let c = self.cost.evaluate(self.surface, a, b, &m)?;
         Some(
             Item {
                 a,
                 b,
-                stamp: self.stamp(a, b),
+                stamp: self.stamp(a, b, endpoint_only),
                 cost_bits: 0,
             }
             .with_cost(c.cost),
         )
+    }
+
+    fn entry(&self, a: u32, b: u32) -> Option<Item> {
+        self.entry_with(a, b, false)
     }
 
     fn resolve(&mut self, mut x: u32) -> u32 {
@@ -137,7 +159,9 @@ impl<C: CostModel + ?Sized> Driver<'_, C> {
 
     fn valid(&self, e: &Item) -> bool {
         let (a, b) = (e.a, e.b);
-        self.stamp(a, b) == e.stamp && self.surface.is_alive(a) && self.surface.is_alive(b)
+        self.stamp(a, b, e.stamp & 1 == 1) == e.stamp
+            && self.surface.is_alive(a)
+            && self.surface.is_alive(b)
     }
 }
 
@@ -226,12 +250,29 @@ pub fn run<C: CostModel + ?Sized>(
                 );
             } else {
                 out.stop_reason = StopReason::NoLegalCollapse;
+                let (mut live, mut fixed) = (0usize, 0usize);
+                for p in 0..d.surface.point_count() as u32 {
+                    if d.surface.is_alive(p) {
+                        live += 1;
+                        if !crate::collapse::is_movable(d.surface.kind(p)) {
+                            fixed += 1;
+                        }
+                    }
+                }
                 let r = &out.rejections;
                 out.stop_detail = format!(
-                    "no legal collapse left (rejected so far: link {}, fold-over {}, degenerate {}, \
-                     duplicate {}, seam {}, kind {}, non-manifold edge {}, filters {})",
-                    r.link, r.fold_over, r.degenerate, r.duplicate, r.seam, r.kind,
-                    r.non_manifold_edge, r.filter
+                    "no legal collapse left: {fixed} of the {live} points left may not move \
+                     (seam or material-border junctions, non-manifold or locked points); \
+                     rejected so far: link {}, fold-over {}, degenerate {}, duplicate {}, \
+                     seam {}, kind {}, non-manifold edge {}, filters {}",
+                    r.link,
+                    r.fold_over,
+                    r.degenerate,
+                    r.duplicate,
+                    r.seam,
+                    r.kind,
+                    r.non_manifold_edge,
+                    r.filter
                 );
             }
             break;
@@ -240,7 +281,8 @@ pub fn run<C: CostModel + ?Sized>(
             continue;
         }
         // Recompute the candidate (same inputs as at push time, so the same result).
-        let Some(m) = d.surface.moves(e.a, e.b, d.limits.allow_non_edge) else {
+        let endpoint_only = e.stamp & 1 == 1;
+        let Some(m) = d.moves(e.a, e.b, endpoint_only) else {
             continue;
         };
         let Some(c) = d.cost.evaluate(d.surface, e.a, e.b, &m) else {
@@ -256,6 +298,17 @@ pub fn run<C: CostModel + ?Sized>(
             .surface
             .check(c.removed, c.kept, p, &d.limits, &mut preview)
         {
+            // A merged placement that folds over or degenerates may still be fine
+            // as a half-edge collapse onto either end: queue that as a fallback
+            // entry, at its own cost.
+            if !endpoint_only
+                && m.merge != Merge::No
+                && matches!(r, Reject::FoldOver | Reject::Degenerate)
+            {
+                if let Some(alt) = d.entry_with(e.a, e.b, true) {
+                    d.heap.push(alt);
+                }
+            }
             let rj = &mut out.rejections;
             match r {
                 Reject::Kind => rj.kind += 1,
@@ -324,7 +377,8 @@ pub fn run<C: CostModel + ?Sized>(
                 let (a, b) = (e.a, e.b);
                 surface.is_alive(a)
                     && surface.is_alive(b)
-                    && version[a as usize].wrapping_add(version[b as usize]) == e.stamp
+                    && (version[a as usize].wrapping_add(version[b as usize]) << 1) | (e.stamp & 1)
+                        == e.stamp
             });
         }
     }

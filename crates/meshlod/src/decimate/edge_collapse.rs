@@ -53,7 +53,6 @@ struct Driver<'a, C: CostModel + ?Sized> {
 }
 
 impl<C: CostModel + ?Sized> Driver<'_, C> {
-    #[inline]
     /// Stamp of an entry for `(a, b)`: the sum of the versions, shifted, with the
     /// low bit saying "endpoint placement only" (a fallback entry).
     #[inline]

@@ -7,6 +7,7 @@
 mod heatmap;
 mod info;
 mod measure;
+mod simplify;
 
 use clap::{Parser, Subcommand};
 use std::process::ExitCode;
@@ -26,6 +27,8 @@ enum Command {
     /// Measure the distance between two meshes: one-sided and symmetric Hausdorff,
     /// mean and RMS (Metro-style vertex + edge + face sampling).
     Measure(measure::MeasureArgs),
+    /// Simplify a mesh (quadric error metric edge collapse) and print a report.
+    Simplify(simplify::SimplifyArgs),
 }
 
 fn main() -> ExitCode {
@@ -33,6 +36,7 @@ fn main() -> ExitCode {
     let result = match cli.command {
         Command::Info(args) => info::run(&args),
         Command::Measure(args) => measure::run(&args),
+        Command::Simplify(args) => simplify::run(&args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -8,12 +8,24 @@
 //!
 //! The crate is organised by domain nouns:
 //! - [`mesh`]: the in-memory [`Mesh`], welding, connectivity, statistics;
-//! - [`io`]: OBJ, PLY, STL, OFF, glTF/GLB and Hoppe `.m` readers and writers.
-//! - [`metrics`]: closest points (BVH), Hausdorff / mean / RMS distances, screen-space error.
+//! - [`io`]: OBJ, PLY, STL, OFF, glTF/GLB and Hoppe `.m` readers and writers;
+//! - [`metrics`]: closest points (BVH), Hausdorff / mean / RMS distances, screen-space error;
+//! - [`simplify()`]: the public simplification entry point (QEM edge collapse);
+//! - [`quadric`]: quadric error metrics;
+//! - [`collapse`]: the edge-collapse operator and its legality checks;
+//! - [`cost`]: cost models (what to collapse first); [`filter`]: vetoes;
+//! - [`decimate`]: the drivers (priority queue, stop rules, reports, observers).
 
+pub mod collapse;
+pub mod cost;
+pub mod decimate;
+pub mod filter;
 pub mod io;
 pub mod mesh;
 pub mod metrics;
+pub mod quadric;
+pub mod simplify;
 
 pub use io::{read_mesh, read_scene, write_mesh, write_scene, Scene};
 pub use mesh::{Mesh, MeshStats};
+pub use simplify::{simplify, Report, SimplifyError, SimplifyOptions};

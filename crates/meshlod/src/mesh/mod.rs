@@ -11,6 +11,7 @@
 //! Layout follows the data-oriented style of meshoptimizer: dense `u32` ids, flat
 //! `Vec`s, no per-element objects.
 
+pub mod generate;
 pub mod stats;
 pub mod subdivide;
 pub mod topology;

@@ -1,0 +1,424 @@
+//! `meshlod simplify IN -o OUT [--ratio R | --triangles N] [--max-error E]
+//! [--method qem] [--lock-boundary] [--pair-threshold T] [--json]`.
+//!
+//! Reads with `meshlod::io::read_scene`, simplifies, writes with `write_scene`. A glTF
+//! input written back as glTF keeps its scene: each part (glTF mesh) is simplified
+//! separately with the same ratio, so materials, nodes and skins survive. Any other
+//! combination is flattened into one mesh first.
+//!
+//! `error` and `--max-error` are distances as a fraction of the bounding-box diagonal
+//! (`--absolute`: in mesh units). The distance of a collapse is `sqrt(Δ/W)`, the
+//! quadric error `Δ` of the new vertex over the area weight `W` accumulated in its
+//! quadric: the area-weighted RMS distance to the original planes it replaces.
+
+use anyhow::{bail, Context, Result};
+use indicatif::{ProgressBar, ProgressStyle};
+use meshlod::collapse::CollapseRecord;
+use meshlod::decimate::Observer;
+use meshlod::io::{read_scene, write_scene, Format, Scene, WriteOptions};
+use meshlod::simplify::{simplify_observed, Distance, Method, SimplifyOptions, StopReason};
+use serde::Serialize;
+use std::io::IsTerminal;
+use std::path::PathBuf;
+use std::time::Instant;
+
+/// Arguments of `meshlod simplify`.
+#[derive(Debug, clap::Args)]
+pub struct SimplifyArgs {
+    /// Input mesh (.obj .ply .stl .off .gltf .glb .m).
+    pub input: PathBuf,
+    /// Output mesh; the format follows the extension.
+    #[arg(short = 'o', long = "output")]
+    pub output: PathBuf,
+    /// Keep this fraction of the triangles (0..=1). Default 0.5 when neither
+    /// --ratio, --triangles nor --max-error is given.
+    #[arg(long, conflicts_with = "triangles")]
+    pub ratio: Option<f64>,
+    /// Target triangle count.
+    #[arg(long)]
+    pub triangles: Option<usize>,
+    /// Stop before a collapse whose error exceeds this distance (a fraction of the
+    /// bounding-box diagonal, or mesh units with --absolute).
+    #[arg(long)]
+    pub max_error: Option<f64>,
+    /// Read --max-error and --pair-threshold, and print `error`, in mesh units.
+    #[arg(long)]
+    pub absolute: bool,
+    /// Simplification method.
+    #[arg(long, value_enum, default_value_t = MethodArg::Qem)]
+    pub method: MethodArg,
+    /// Never move or remove a boundary vertex.
+    #[arg(long)]
+    pub lock_boundary: bool,
+    /// Also contract non-edge vertex pairs closer than T (fraction of the diagonal,
+    /// or mesh units with --absolute), joining separate parts. Lets the topology
+    /// change.
+    #[arg(long, value_name = "T")]
+    pub pair_threshold: Option<f64>,
+    /// Weight of the boundary constraint planes (default 10).
+    #[arg(long, value_name = "W")]
+    pub boundary_weight: Option<f64>,
+    /// Refuse collapses that turn a triangle's normal by more than DEG degrees.
+    #[arg(long, value_name = "DEG")]
+    pub max_normal_deviation: Option<f64>,
+    /// Minimum quality of new triangles (0 disables the sliver guard; default 0.1).
+    #[arg(long, value_name = "Q")]
+    pub min_quality: Option<f64>,
+    /// Write ASCII where the format has a choice (PLY, STL).
+    #[arg(long)]
+    pub ascii: bool,
+    /// Print the report as one JSON object.
+    #[arg(long)]
+    pub json: bool,
+}
+
+/// `--method` values.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum MethodArg {
+    /// Quadric error metric edge collapse (Garland & Heckbert).
+    Qem,
+}
+
+/// The JSON report.
+#[derive(Debug, Serialize)]
+struct CliReport {
+    input: String,
+    output: String,
+    method: &'static str,
+    parts: usize,
+    triangles_in: usize,
+    vertices_in: usize,
+    target_triangles: usize,
+    triangles_out: usize,
+    vertices_out: usize,
+    /// Relative to the diagonal, or absolute with --absolute.
+    error: f64,
+    error_relative: f64,
+    error_absolute: f64,
+    error_units: &'static str,
+    bbox_diagonal: f64,
+    stop_reason: StopReason,
+    stop_detail: String,
+    seconds: f64,
+    read_seconds: f64,
+    write_seconds: f64,
+    collapses: usize,
+    non_edge_contractions: usize,
+    degenerate_removed: usize,
+    duplicate_removed: usize,
+}
+
+/// Progress bar on stderr, advanced by removed triangles.
+struct Progress {
+    bar: Option<ProgressBar>,
+    start: usize,
+}
+
+impl Observer for Progress {
+    fn started(&mut self, triangles: usize, target: usize) {
+        if let Some(b) = &self.bar {
+            b.set_length((self.start.max(triangles) - target.min(triangles)) as u64);
+        }
+        self.start = triangles;
+    }
+    fn collapsed(&mut self, _record: &CollapseRecord) {}
+    fn progress(&mut self, triangles: usize) {
+        if let Some(b) = &self.bar {
+            b.set_position(self.start.saturating_sub(triangles) as u64);
+        }
+    }
+}
+
+fn options(args: &SimplifyArgs) -> Result<SimplifyOptions> {
+    let dist = |v: f64| {
+        if args.absolute {
+            Distance::Absolute(v)
+        } else {
+            Distance::Relative(v)
+        }
+    };
+    let mut o = SimplifyOptions::default().with_method(match args.method {
+        MethodArg::Qem => Method::Qem,
+    });
+    if let Some(r) = args.ratio {
+        if !(0.0..=1.0).contains(&r) {
+            bail!("--ratio {r} is not in [0, 1]");
+        }
+        o = o.with_ratio(r);
+    }
+    if let Some(n) = args.triangles {
+        o = o.with_target_triangles(n);
+    }
+    if let Some(e) = args.max_error {
+        o = o.with_max_error(dist(e));
+    }
+    if let Some(t) = args.pair_threshold {
+        o = o.with_pair_threshold(dist(t)).with_preserve_topology(false);
+    }
+    if let Some(w) = args.boundary_weight {
+        o = o.with_boundary_weight(w);
+    }
+    if let Some(d) = args.max_normal_deviation {
+        o = o.with_max_normal_deviation(d);
+    }
+    if let Some(q) = args.min_quality {
+        o = o.with_min_triangle_quality(q);
+    }
+    Ok(o.with_lock_boundary(args.lock_boundary))
+}
+
+/// Runs `meshlod simplify`.
+///
+/// # Errors
+/// Reading, option, simplification or writing errors, naming the file.
+pub fn run(args: &SimplifyArgs) -> Result<()> {
+    let opts = options(args)?;
+    let t0 = Instant::now();
+    let scene = read_scene(&args.input)?;
+    let read_seconds = t0.elapsed().as_secs_f64();
+    let in_format = Format::from_path(&args.input);
+    let out_format = Format::from_path(&args.output);
+    let is_gltf = |f: Option<Format>| matches!(f, Some(Format::Gltf | Format::Glb));
+    let per_part = is_gltf(in_format) && is_gltf(out_format) && scene.gltf.is_some();
+
+    // A progress bar only when a person watches stderr.
+    let bar = std::io::stderr().is_terminal().then(|| {
+        let b = ProgressBar::new(0);
+        b.set_style(
+            ProgressStyle::with_template("{spinner} simplifying [{bar:40}] {percent}% {elapsed}")
+                .unwrap_or_else(|_| ProgressStyle::default_bar())
+                .progress_chars("=> "),
+        );
+        b
+    });
+    let mut progress = Progress { bar, start: 0 };
+
+    let flat_diag = scene.flatten().bbox_diagonal();
+    let (out_scene, agg) = if per_part {
+        simplify_parts(&scene, &opts, flat_diag, &mut progress)?
+    } else {
+        let mesh = scene.flatten();
+        let s = simplify_observed(&mesh, &opts, &mut progress)
+            .with_context(|| format!("{}", args.input.display()))?;
+        let r = s.report;
+        let agg = Aggregate {
+            parts: 1,
+            triangles_in: r.triangles_in,
+            vertices_in: r.vertices_in,
+            target_triangles: r.target_triangles,
+            triangles_out: r.triangles_out,
+            vertices_out: r.vertices_out,
+            error_absolute: r.error_absolute,
+            diag: r.bbox_diagonal,
+            stop_reason: r.stop_reason,
+            stop_detail: r.stop_detail,
+            seconds: r.seconds,
+            collapses: r.collapses,
+            non_edge: r.non_edge_contractions,
+            degenerate: r.degenerate_removed,
+            duplicate: r.duplicate_removed,
+        };
+        let mut out = Scene::from_mesh(s.mesh);
+        out.material_libraries = scene.material_libraries.clone();
+        (out, agg)
+    };
+    if let Some(b) = &progress.bar {
+        b.finish_and_clear();
+    }
+    let t1 = Instant::now();
+    write_scene(
+        &args.output,
+        &out_scene,
+        &WriteOptions::default().with_ascii(args.ascii),
+    )?;
+    let write_seconds = t1.elapsed().as_secs_f64();
+
+    let rel = if agg.diag > 0.0 {
+        agg.error_absolute / agg.diag
+    } else {
+        0.0
+    };
+    let report = CliReport {
+        input: args.input.display().to_string(),
+        output: args.output.display().to_string(),
+        method: opts.method.name(),
+        parts: agg.parts,
+        triangles_in: agg.triangles_in,
+        vertices_in: agg.vertices_in,
+        target_triangles: agg.target_triangles,
+        triangles_out: agg.triangles_out,
+        vertices_out: agg.vertices_out,
+        error: if args.absolute {
+            agg.error_absolute
+        } else {
+            rel
+        },
+        error_relative: rel,
+        error_absolute: agg.error_absolute,
+        error_units: if args.absolute {
+            "mesh units"
+        } else {
+            "fraction of bounding-box diagonal"
+        },
+        bbox_diagonal: agg.diag,
+        stop_reason: agg.stop_reason,
+        stop_detail: agg.stop_detail,
+        seconds: agg.seconds,
+        read_seconds,
+        write_seconds,
+        collapses: agg.collapses,
+        non_edge_contractions: agg.non_edge,
+        degenerate_removed: agg.degenerate,
+        duplicate_removed: agg.duplicate,
+    };
+    if args.json {
+        println!("{}", serde_json::to_string(&report)?);
+    } else {
+        print_text(&report);
+    }
+    Ok(())
+}
+
+/// Totals over the parts of a scene.
+struct Aggregate {
+    parts: usize,
+    triangles_in: usize,
+    vertices_in: usize,
+    target_triangles: usize,
+    triangles_out: usize,
+    vertices_out: usize,
+    error_absolute: f64,
+    diag: f64,
+    stop_reason: StopReason,
+    stop_detail: String,
+    seconds: f64,
+    collapses: usize,
+    non_edge: usize,
+    degenerate: usize,
+    duplicate: usize,
+}
+
+/// Simplifies every part of a glTF scene with the same ratio; absolute distances
+/// are the scene's (flattened) diagonal times the relative ones.
+fn simplify_parts(
+    scene: &Scene,
+    opts: &SimplifyOptions,
+    diag: f64,
+    progress: &mut Progress,
+) -> Result<(Scene, Aggregate)> {
+    let total: usize = scene.parts.iter().map(|p| p.mesh.triangles.len()).sum();
+    let mut part_opts = opts.clone();
+    if opts.ratio.is_none() {
+        if let Some(n) = opts.target_triangles {
+            let r = if total > 0 {
+                (n as f64 / total as f64).min(1.0)
+            } else {
+                1.0
+            };
+            part_opts.ratio = Some(r);
+            part_opts.target_triangles = None;
+        }
+    }
+    let abs = |d: Option<Distance>| {
+        d.map(|d| match d {
+            Distance::Relative(f) => Distance::Absolute(f * diag),
+            a @ Distance::Absolute(_) => a,
+        })
+    };
+    part_opts.max_error = abs(opts.max_error);
+    part_opts.pair_threshold = abs(opts.pair_threshold);
+    let mut out = scene.clone();
+    let mut agg = Aggregate {
+        parts: scene.parts.len(),
+        triangles_in: 0,
+        vertices_in: 0,
+        target_triangles: 0,
+        triangles_out: 0,
+        vertices_out: 0,
+        error_absolute: 0.0,
+        diag,
+        stop_reason: StopReason::TargetReached,
+        stop_detail: String::new(),
+        seconds: 0.0,
+        collapses: 0,
+        non_edge: 0,
+        degenerate: 0,
+        duplicate: 0,
+    };
+    let mut first_other: Option<(StopReason, String)> = None;
+    for (i, part) in scene.parts.iter().enumerate() {
+        let s = simplify_observed(&part.mesh, &part_opts, progress)
+            .with_context(|| format!("part {i} ({})", part.name.as_deref().unwrap_or("unnamed")))?;
+        let r = &s.report;
+        agg.triangles_in += r.triangles_in;
+        agg.vertices_in += r.vertices_in;
+        agg.target_triangles += r.target_triangles;
+        agg.triangles_out += r.triangles_out;
+        agg.vertices_out += r.vertices_out;
+        agg.error_absolute = agg.error_absolute.max(r.error_absolute);
+        agg.seconds += r.seconds;
+        agg.collapses += r.collapses;
+        agg.non_edge += r.non_edge_contractions;
+        agg.degenerate += r.degenerate_removed;
+        agg.duplicate += r.duplicate_removed;
+        if !matches!(
+            r.stop_reason,
+            StopReason::TargetReached | StopReason::EmptyInput
+        ) && first_other.is_none()
+        {
+            first_other = Some((r.stop_reason, format!("part {i}: {}", r.stop_detail)));
+        }
+        if let Some(p) = out.parts.get_mut(i) {
+            p.mesh = s.mesh;
+        }
+    }
+    match first_other {
+        Some((reason, detail)) => {
+            agg.stop_reason = reason;
+            agg.stop_detail = detail;
+        }
+        None => {
+            agg.stop_detail = format!(
+                "every part reached its target ({} triangles in all)",
+                agg.target_triangles
+            );
+        }
+    }
+    Ok((out, agg))
+}
+
+fn print_text(r: &CliReport) {
+    let pct = |a: usize, b: usize| {
+        if b > 0 {
+            100.0 * a as f64 / b as f64
+        } else {
+            0.0
+        }
+    };
+    println!("{} -> {}  ({})", r.input, r.output, r.method);
+    if r.parts > 1 {
+        println!("  parts        {} (each simplified separately)", r.parts);
+    }
+    println!(
+        "  triangles    {} -> {} ({:.2}%; target {})",
+        r.triangles_in,
+        r.triangles_out,
+        pct(r.triangles_out, r.triangles_in),
+        r.target_triangles
+    );
+    println!("  vertices     {} -> {}", r.vertices_in, r.vertices_out);
+    println!(
+        "  error        {:.4}% of the diagonal ({:.4e} mesh units; quadric RMS distance)",
+        100.0 * r.error_relative,
+        r.error_absolute
+    );
+    println!("  stopped      {}: {}", r.stop_reason, r.stop_detail);
+    println!(
+        "  collapses    {} ({} non-edge); repaired {} degenerate, {} duplicate triangles",
+        r.collapses, r.non_edge_contractions, r.degenerate_removed, r.duplicate_removed
+    );
+    println!(
+        "  time         {:.3} s simplify, {:.3} s read, {:.3} s write",
+        r.seconds, r.read_seconds, r.write_seconds
+    );
+}

@@ -1,0 +1,215 @@
+//! Runs the real `meshlod simplify` binary in a temporary directory: the JSON report
+//! contract (`triangles_in`, `triangles_out`, `vertices_out`, `error`, `stop_reason`,
+//! `seconds`), targets by ratio, count and error, `--absolute`, clean errors for bad
+//! arguments, and glTF in / glTF out keeping the scene's parts.
+
+use meshlod::io::{read_scene, WriteOptions};
+use meshlod::mesh::generate;
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+fn meshlod(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_meshlod"))
+        .args(args)
+        .output()
+        .expect("run meshlod")
+}
+
+/// A torus (2 × 48 × 24 = 2304 triangles) written as binary PLY into `dir`.
+fn torus_file(dir: &Path) -> PathBuf {
+    let p = dir.join("torus.ply");
+    meshlod::write_mesh(
+        &p,
+        &generate::torus(48, 24, 2.0, 0.6),
+        &WriteOptions::default(),
+    )
+    .expect("write torus");
+    p
+}
+
+fn json(out: &Output) -> serde_json::Value {
+    assert!(
+        out.status.success(),
+        "meshlod failed: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    let line = stdout.lines().last().expect("a JSON line");
+    serde_json::from_str(line).expect("valid JSON")
+}
+
+#[test]
+fn ratio_json_report_and_output() {
+    let dir = tempfile::tempdir().unwrap();
+    let input = torus_file(dir.path());
+    let output = dir.path().join("out.ply");
+    let out = meshlod(&[
+        "simplify",
+        input.to_str().unwrap(),
+        "-o",
+        output.to_str().unwrap(),
+        "--ratio",
+        "0.1",
+        "--json",
+    ]);
+    let j = json(&out);
+    assert_eq!(j["triangles_in"], 2304);
+    assert_eq!(j["triangles_out"], 230);
+    assert_eq!(j["stop_reason"], "target_reached");
+    assert!(j["vertices_out"].as_u64().unwrap() > 100);
+    let e = j["error"].as_f64().unwrap();
+    assert!(e > 0.0 && e < 0.05, "relative error {e}");
+    assert!(j["seconds"].as_f64().unwrap() >= 0.0);
+    let scene = read_scene(&output).expect("output readable");
+    let m = scene.flatten();
+    assert_eq!(m.triangles.len(), 230);
+    assert_eq!(Some(m.positions.len() as u64), j["vertices_out"].as_u64());
+}
+
+#[test]
+fn triangles_max_error_and_absolute() {
+    let dir = tempfile::tempdir().unwrap();
+    let input = torus_file(dir.path());
+    let output = dir.path().join("out.ply");
+    let (i, o) = (input.to_str().unwrap(), output.to_str().unwrap());
+    let j = json(&meshlod(&[
+        "simplify",
+        i,
+        "-o",
+        o,
+        "--triangles",
+        "1000",
+        "--json",
+    ]));
+    assert_eq!(j["triangles_out"], 1000);
+    // An error bound alone simplifies until the next collapse would exceed it.
+    let j = json(&meshlod(&[
+        "simplify",
+        i,
+        "-o",
+        o,
+        "--max-error",
+        "0.002",
+        "--json",
+    ]));
+    assert_eq!(j["stop_reason"], "max_error");
+    assert!(j["error"].as_f64().unwrap() <= 0.002);
+    assert!(j["triangles_out"].as_u64().unwrap() < 2304);
+    // --absolute: error in mesh units (diagonal of this torus ≈ 6.6).
+    let j = json(&meshlod(&[
+        "simplify",
+        i,
+        "-o",
+        o,
+        "--ratio",
+        "0.2",
+        "--absolute",
+        "--json",
+    ]));
+    let (abs, rel, diag) = (
+        j["error"].as_f64().unwrap(),
+        j["error_relative"].as_f64().unwrap(),
+        j["bbox_diagonal"].as_f64().unwrap(),
+    );
+    assert!((abs - rel * diag).abs() <= 1e-9 * diag.max(1.0));
+    assert_eq!(j["error_units"], "mesh units");
+}
+
+#[test]
+fn text_report_is_one_screen() {
+    let dir = tempfile::tempdir().unwrap();
+    let input = torus_file(dir.path());
+    let output = dir.path().join("out.obj.ply");
+    let out = meshlod(&[
+        "simplify",
+        input.to_str().unwrap(),
+        "-o",
+        output.to_str().unwrap(),
+        "--ratio",
+        "0.5",
+        "--lock-boundary",
+    ]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(text.lines().count() <= 12, "{text}");
+    for word in ["triangles", "vertices", "error", "stopped", "time"] {
+        assert!(text.contains(word), "missing {word}: {text}");
+    }
+}
+
+#[test]
+fn bad_arguments_give_clean_errors() {
+    let dir = tempfile::tempdir().unwrap();
+    let input = torus_file(dir.path());
+    let i = input.to_str().unwrap();
+    let o = dir.path().join("o.ply");
+    let o = o.to_str().unwrap();
+    for args in [
+        vec!["simplify", i, "-o", o, "--ratio", "1.5"],
+        vec![
+            "simplify",
+            i,
+            "-o",
+            o,
+            "--ratio",
+            "0.5",
+            "--triangles",
+            "10",
+        ],
+        vec!["simplify", i, "-o", o, "--max-normal-deviation", "400"],
+        vec!["simplify", i, "-o", o, "--method", "nope"],
+        vec!["simplify", i],
+    ] {
+        let out = meshlod(&args);
+        assert!(!out.status.success(), "{args:?} was accepted");
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(!err.contains("panicked"), "{args:?}: {err}");
+    }
+    let out = meshlod(&["simplify", "no/such/file.ply", "-o", o]);
+    assert!(!out.status.success());
+    assert!(String::from_utf8_lossy(&out.stderr).contains("no/such/file.ply"));
+}
+
+/// glTF in, glTF out: every part simplified separately, the scene kept. Skipped
+/// with a notice while the glTF reader is not available.
+#[test]
+fn gltf_parts_are_simplified_separately() {
+    let duck = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../tests/data/Duck/Duck.gltf");
+    let Ok(scene) = read_scene(&duck) else {
+        eprintln!("notice: glTF reader not available; skipping");
+        return;
+    };
+    let dir = tempfile::tempdir().unwrap();
+    let output = dir.path().join("duck.glb");
+    let out = meshlod(&[
+        "simplify",
+        duck.to_str().unwrap(),
+        "-o",
+        output.to_str().unwrap(),
+        "--ratio",
+        "0.25",
+        "--json",
+    ]);
+    if !out.status.success() && String::from_utf8_lossy(&out.stderr).contains("not written yet") {
+        eprintln!("notice: glTF writer not available; skipping");
+        return;
+    }
+    let j = json(&out);
+    assert_eq!(j["parts"].as_u64(), Some(scene.parts.len() as u64));
+    let back = read_scene(&output).expect("written glTF reads back");
+    assert_eq!(back.parts.len(), scene.parts.len());
+    let tris: usize = back.parts.iter().map(|p| p.mesh.triangles.len()).sum();
+    assert_eq!(Some(tris as u64), j["triangles_out"].as_u64());
+    assert!(
+        tris <= scene
+            .parts
+            .iter()
+            .map(|p| p.mesh.triangles.len())
+            .sum::<usize>()
+            / 3
+    );
+}

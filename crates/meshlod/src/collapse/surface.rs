@@ -1,0 +1,1563 @@
+//! [`Surface`]: welded connectivity in flat arrays, vertex kinds, the legality checks
+//! and the collapse itself.
+
+use super::{ChangedTriangle, CollapseRecord, Merge, Moves, OperatorLimits, Preview, Reject};
+use crate::mesh::{Mesh, VertexAttributes, VertexKind, Weld};
+use crate::quadric::{cross, dot, sub};
+
+/// Live triangles as wedge triples, point triples and optional groups.
+pub(crate) type OutputTriangles = (Vec<[u32; 3]>, Vec<[u32; 3]>, Option<Vec<u32>>);
+
+/// Marks a dead triangle (all three corners) and "no triangle" in records.
+pub const DEAD: u32 = u32::MAX;
+
+/// Extra slots given to every fan when the fan array is (re)built.
+const FAN_SLACK: u32 = 2;
+
+/// Options for [`Surface::build`].
+#[derive(Debug, Clone, Copy, Default)]
+pub struct BuildOptions<'a> {
+    /// Per input vertex: `true` locks it (its point is never moved or removed).
+    pub locked: Option<&'a [bool]>,
+}
+
+/// What the up-front repair removed from the input.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, serde::Serialize)]
+pub struct Repair {
+    /// Triangles with a repeated point (after welding) or exactly zero area.
+    pub degenerate_triangles: usize,
+    /// Extra copies of triangles over the same three points (any order or winding).
+    pub duplicate_triangles: usize,
+}
+
+/// Fixed inputs of the geometric checks of one proposed collapse.
+struct Geometry {
+    cos_limit: f64,
+    area_eps: f64,
+    p: [f64; 3],
+}
+
+/// Per-neighbour scratch used while classifying a point.
+#[derive(Debug, Clone, Copy, Default)]
+struct EdgeScratch {
+    q: u32,
+    count: u32,
+    t1: u32,
+    t2: u32,
+    l1: u32,
+    l2: u32,
+}
+
+/// Connectivity of a welded triangle mesh being simplified.
+///
+/// Points are welded positions (ids `0..point_count`), triangles refer to points and,
+/// for attribute meshes with seams, to *wedges* (canonical input vertex ids, one per
+/// distinct attribute set at a position). Everything is a flat `Vec`.
+#[derive(Debug, Clone)]
+pub struct Surface {
+    pos: Vec<[f32; 3]>,
+    kind: Vec<VertexKind>,
+    boundary: Vec<bool>,
+    fan_start: Vec<u32>,
+    fan_len: Vec<u32>,
+    fan_cap: Vec<u32>,
+    fans: Vec<u32>,
+    fan_garbage: usize,
+    tri: Vec<[u32; 3]>,
+    tri_wedge: Option<Vec<[u32; 3]>>,
+    tri_group: Option<Vec<u32>>,
+    wedge_point: Vec<u32>,
+    point_wedge: Vec<u32>,
+    attrs: VertexAttributes,
+    live_tris: usize,
+    center: [f64; 3],
+    diag: f64,
+    area_eps: f64,
+    mark: Vec<u32>,
+    gen: u32,
+    slot: Vec<u32>,
+    scratch_edges: Vec<EdgeScratch>,
+    scratch_parent: Vec<u32>,
+    scratch_plans: Vec<(u32, [u32; 3], [f64; 3])>,
+    kind_changed: [u32; 2],
+    fold_angle: f64,
+    fold_cos: f64,
+}
+
+#[inline]
+fn f64x3(p: [f32; 3]) -> [f64; 3] {
+    [f64::from(p[0]), f64::from(p[1]), f64::from(p[2])]
+}
+
+impl Surface {
+    /// Welds `mesh`, removes degenerate and duplicate triangles (counted in the
+    /// returned [`Repair`]), builds the fans and classifies every point.
+    ///
+    /// Vertices with bitwise-equal positions and equal attributes become one wedge;
+    /// with equal positions they share a point.
+    ///
+    /// # Panics
+    /// Panics if `mesh` does not [validate](Mesh::validate) or `options.locked` is
+    /// shorter than the vertex list.
+    #[must_use]
+    pub fn build(mesh: &Mesh, options: &BuildOptions<'_>) -> (Self, Repair) {
+        let weld = Weld::exact(&mesh.positions);
+        let np = weld.point_count();
+        let has_attrs = !mesh.attributes.is_empty();
+        let canonical = if has_attrs {
+            canonical_wedges(mesh, &weld)
+        } else {
+            weld.point_of
+                .iter()
+                .map(|&p| weld.representative[p as usize])
+                .collect()
+        };
+        let point_of = weld.point_of;
+        let representative = weld.representative;
+        let pos: Vec<[f32; 3]> = representative
+            .iter()
+            .map(|&v| mesh.positions[v as usize])
+            .collect();
+
+        // Triangles, without degenerate ones.
+        let mut repair = Repair::default();
+        let mut tri = Vec::with_capacity(mesh.triangles.len());
+        let mut tri_wedge = has_attrs.then(|| Vec::with_capacity(mesh.triangles.len()));
+        let mut tri_group = mesh
+            .groups
+            .as_ref()
+            .map(|_| Vec::with_capacity(mesh.triangles.len()));
+        for (ti, t) in mesh.triangles.iter().enumerate() {
+            let w = t.map(|v| canonical[v as usize]);
+            let p = w.map(|v| point_of[v as usize]);
+            if p[0] == p[1] || p[1] == p[2] || p[0] == p[2] {
+                repair.degenerate_triangles += 1;
+                continue;
+            }
+            let (a, b, c) = (
+                f64x3(pos[p[0] as usize]),
+                f64x3(pos[p[1] as usize]),
+                f64x3(pos[p[2] as usize]),
+            );
+            if cross(sub(b, a), sub(c, a)) == [0.0; 3] {
+                repair.degenerate_triangles += 1;
+                continue;
+            }
+            tri.push(p);
+            if let Some(tw) = &mut tri_wedge {
+                tw.push(w);
+            }
+            if let (Some(tg), Some(g)) = (&mut tri_group, &mesh.groups) {
+                tg.push(g[ti]);
+            }
+        }
+
+        // Order triangles by their smallest point (a counting sort, O(n)): the
+        // triangles around a point then sit close together in memory, which is what
+        // every fan walk touches.
+        {
+            let mut count = vec![0u32; np + 1];
+            for t in &tri {
+                count[t.iter().copied().min().unwrap_or(0) as usize + 1] += 1;
+            }
+            for i in 0..np {
+                count[i + 1] += count[i];
+            }
+            let mut order = vec![0u32; tri.len()];
+            for (i, t) in tri.iter().enumerate() {
+                let m = t.iter().copied().min().unwrap_or(0) as usize;
+                order[count[m] as usize] = i as u32;
+                count[m] += 1;
+            }
+            tri = order.iter().map(|&i| tri[i as usize]).collect();
+            if let Some(tw) = &mut tri_wedge {
+                *tw = order.iter().map(|&i| tw[i as usize]).collect();
+            }
+            if let Some(tg) = &mut tri_group {
+                *tg = order.iter().map(|&i| tg[i as usize]).collect();
+            }
+        }
+
+        let diag = mesh.bbox_diagonal();
+        let center = mesh.bounding_box(false).map_or([0.0; 3], |(lo, hi)| {
+            [
+                0.5 * (f64::from(lo[0]) + f64::from(hi[0])),
+                0.5 * (f64::from(lo[1]) + f64::from(hi[1])),
+                0.5 * (f64::from(lo[2]) + f64::from(hi[2])),
+            ]
+        });
+        let eps = f64::from(f32::EPSILON) * diag;
+        let mut s = Self {
+            pos,
+            kind: vec![VertexKind::Complex; np],
+            boundary: vec![false; np],
+            fan_start: Vec::new(),
+            fan_len: Vec::new(),
+            fan_cap: Vec::new(),
+            fans: Vec::new(),
+            fan_garbage: 0,
+            tri,
+            tri_wedge,
+            tri_group,
+            wedge_point: point_of,
+            point_wedge: vec![DEAD; np],
+            attrs: if has_attrs {
+                mesh.attributes.clone()
+            } else {
+                VertexAttributes::default()
+            },
+            live_tris: 0,
+            center,
+            diag,
+            area_eps: eps * eps,
+            mark: vec![0; np],
+            gen: 0,
+            slot: vec![0; np],
+            scratch_edges: Vec::new(),
+            scratch_parent: Vec::new(),
+            scratch_plans: Vec::new(),
+            kind_changed: [DEAD; 2],
+            fold_angle: f64::NAN,
+            fold_cos: 0.0,
+        };
+        s.build_fans();
+        repair.duplicate_triangles = s.remove_duplicates();
+        s.live_tris = s.tri.iter().filter(|t| t[0] != DEAD).count();
+
+        // Wedges: does any point have corners with different wedges?
+        let mut seams = false;
+        if let Some(tw) = &s.tri_wedge {
+            for (t, w) in s.tri.iter().zip(tw.iter()) {
+                if t[0] == DEAD {
+                    continue;
+                }
+                for k in 0..3 {
+                    let pw = &mut s.point_wedge[t[k] as usize];
+                    if *pw == DEAD {
+                        *pw = w[k];
+                    } else if *pw != w[k] {
+                        seams = true;
+                    }
+                }
+            }
+        } else {
+            for (p, pw) in s.point_wedge.iter_mut().enumerate() {
+                *pw = canonical_of_point(&representative, p);
+            }
+        }
+        if !seams {
+            if let Some(tw) = s.tri_wedge.take() {
+                for (t, w) in s.tri.iter().zip(tw.iter()) {
+                    if t[0] != DEAD {
+                        for k in 0..3 {
+                            s.point_wedge[t[k] as usize] = w[k];
+                        }
+                    }
+                }
+            }
+        }
+        for p in 0..np as u32 {
+            s.classify(p);
+        }
+        if let Some(locked) = options.locked {
+            for (v, &l) in locked.iter().enumerate() {
+                if l {
+                    if let Some(&p) = s.wedge_point.get(v) {
+                        s.kind[p as usize] = VertexKind::Locked;
+                    }
+                }
+            }
+        }
+        // The wedge → point map is only needed to move seam wedges (non-edge pairs).
+        if s.tri_wedge.is_none() {
+            s.wedge_point = Vec::new();
+        }
+        (s, repair)
+    }
+
+    /// Builds the fan CSR from the live triangles.
+    fn build_fans(&mut self) {
+        let np = self.pos.len();
+        let mut len = vec![0u32; np];
+        for t in &self.tri {
+            if t[0] != DEAD {
+                for &p in t {
+                    len[p as usize] += 1;
+                }
+            }
+        }
+        let mut start = Vec::with_capacity(np);
+        let mut cap = Vec::with_capacity(np);
+        let mut total = 0u32;
+        for &l in &len {
+            start.push(total);
+            let c = if l == 0 { 0 } else { l + FAN_SLACK };
+            cap.push(c);
+            total += c;
+        }
+        let mut fans = vec![DEAD; total as usize];
+        let mut fill = vec![0u32; np];
+        for (ti, t) in self.tri.iter().enumerate() {
+            if t[0] != DEAD {
+                for &p in t {
+                    let p = p as usize;
+                    fans[(start[p] + fill[p]) as usize] = ti as u32;
+                    fill[p] += 1;
+                }
+            }
+        }
+        self.fan_start = start;
+        self.fan_len = fill;
+        self.fan_cap = cap;
+        self.fans = fans;
+        self.fan_garbage = 0;
+    }
+
+    /// Rewrites the fan array compactly (after many merged fans were appended).
+    fn compact_fans(&mut self) {
+        let np = self.pos.len();
+        let total: usize = (0..np)
+            .filter(|&p| self.fan_len[p] > 0)
+            .map(|p| (self.fan_len[p] + FAN_SLACK) as usize)
+            .sum();
+        let mut fans = Vec::with_capacity(total);
+        for p in 0..np {
+            let l = self.fan_len[p];
+            if l == 0 {
+                self.fan_start[p] = fans.len() as u32;
+                self.fan_cap[p] = 0;
+                continue;
+            }
+            let s = self.fan_start[p] as usize;
+            self.fan_start[p] = fans.len() as u32;
+            fans.extend_from_slice(&self.fans[s..s + l as usize]);
+            fans.extend(std::iter::repeat_n(DEAD, FAN_SLACK as usize));
+            self.fan_cap[p] = l + FAN_SLACK;
+        }
+        self.fans = fans;
+        self.fan_garbage = 0;
+    }
+
+    /// Marks duplicate triangles dead and removes them from the fans; returns how many.
+    fn remove_duplicates(&mut self) -> usize {
+        let mut dups = 0;
+        for t in 0..self.tri.len() {
+            let tt = self.tri[t];
+            let key = sorted3(tt);
+            let m = key[0];
+            let s = self.fan_start[m as usize] as usize;
+            let l = self.fan_len[m as usize] as usize;
+            let mut dup = false;
+            for &t2 in &self.fans[s..s + l] {
+                if (t2 as usize) < t
+                    && self.tri[t2 as usize][0] != DEAD
+                    && sorted3(self.tri[t2 as usize]) == key
+                {
+                    dup = true;
+                    break;
+                }
+            }
+            if dup {
+                self.tri[t] = [DEAD; 3];
+                dups += 1;
+            }
+        }
+        if dups > 0 {
+            self.build_fans();
+        }
+        dups
+    }
+
+    #[inline]
+    fn next_gen(&mut self) -> u32 {
+        self.gen = self.gen.wrapping_add(1);
+        if self.gen == 0 {
+            self.mark.fill(0);
+            self.gen = 1;
+        }
+        self.gen
+    }
+
+    // ----- accessors -------------------------------------------------------------
+
+    /// Number of points (welded positions), alive or not.
+    #[must_use]
+    pub fn point_count(&self) -> usize {
+        self.pos.len()
+    }
+
+    /// Number of triangle slots (live or dead).
+    #[must_use]
+    pub fn triangle_slots(&self) -> usize {
+        self.tri.len()
+    }
+
+    /// Number of live triangles.
+    #[must_use]
+    pub fn live_triangles(&self) -> usize {
+        self.live_tris
+    }
+
+    /// Number of points with at least one triangle.
+    #[must_use]
+    pub fn live_points(&self) -> usize {
+        self.fan_len.iter().filter(|&&l| l > 0).count()
+    }
+
+    /// Position of point `p`.
+    #[must_use]
+    #[inline]
+    pub fn position(&self, p: u32) -> [f32; 3] {
+        self.pos[p as usize]
+    }
+
+    /// Position of point `p` in `f64`, relative to [`Self::center`].
+    #[must_use]
+    #[inline]
+    pub fn local(&self, p: u32) -> [f64; 3] {
+        let q = self.pos[p as usize];
+        [
+            f64::from(q[0]) - self.center[0],
+            f64::from(q[1]) - self.center[1],
+            f64::from(q[2]) - self.center[2],
+        ]
+    }
+
+    /// Kind of point `p`.
+    #[must_use]
+    #[inline]
+    pub fn kind(&self, p: u32) -> VertexKind {
+        self.kind[p as usize]
+    }
+
+    /// Whether point `p` lies on a boundary edge.
+    #[must_use]
+    #[inline]
+    pub fn is_boundary(&self, p: u32) -> bool {
+        self.boundary[p as usize]
+    }
+
+    /// Whether point `p` still has triangles.
+    #[must_use]
+    #[inline]
+    pub fn is_alive(&self, p: u32) -> bool {
+        self.fan_len[p as usize] > 0
+    }
+
+    /// The triangles around point `p` (live ones only).
+    #[must_use]
+    #[inline]
+    pub fn fan(&self, p: u32) -> &[u32] {
+        let s = self.fan_start[p as usize] as usize;
+        &self.fans[s..s + self.fan_len[p as usize] as usize]
+    }
+
+    /// The points of triangle `t` (`[DEAD; 3]` once removed).
+    #[must_use]
+    #[inline]
+    pub fn triangle(&self, t: u32) -> [u32; 3] {
+        self.tri[t as usize]
+    }
+
+    /// Wedge (canonical input vertex) of corner `k` of triangle `t`.
+    #[must_use]
+    #[inline]
+    pub fn wedge(&self, t: u32, k: usize) -> u32 {
+        match &self.tri_wedge {
+            Some(tw) => tw[t as usize][k],
+            None => self.point_wedge[self.tri[t as usize][k] as usize],
+        }
+    }
+
+    /// Group (material) id of triangle `t`, 0 without groups.
+    #[must_use]
+    #[inline]
+    pub fn group(&self, t: u32) -> u32 {
+        self.tri_group.as_ref().map_or(0, |g| g[t as usize])
+    }
+
+    /// Whether the surface has attribute seams (points with several wedges).
+    #[must_use]
+    pub fn has_seams(&self) -> bool {
+        self.tri_wedge.is_some()
+    }
+
+    /// The working attribute streams, indexed by wedge (input vertex id).
+    #[must_use]
+    pub fn attributes(&self) -> &VertexAttributes {
+        &self.attrs
+    }
+
+    /// Centre of the input's bounding box (origin for [`Self::local`]).
+    #[must_use]
+    pub fn center(&self) -> [f64; 3] {
+        self.center
+    }
+
+    /// Bounding-box diagonal of the input.
+    #[must_use]
+    pub fn diagonal(&self) -> f64 {
+        self.diag
+    }
+
+    /// Calls `f(a, b, t, kind)` for every border edge (`kind = Border`) and every
+    /// attribute-seam or material-border edge (`kind = Seam`, once per side, with the
+    /// triangle of that side), where `t` is a triangle on the edge.
+    pub fn for_each_feature_edge(&self, mut f: impl FnMut(u32, u32, u32, VertexKind)) {
+        for (ti, t) in self.tri.iter().enumerate() {
+            if t[0] == DEAD {
+                continue;
+            }
+            for k in 0..3 {
+                let (a, b) = (t[k], t[(k + 1) % 3]);
+                // A manifold point has no border or seam edge.
+                if self.kind[a as usize] == VertexKind::Manifold
+                    || self.kind[b as usize] == VertexKind::Manifold
+                {
+                    continue;
+                }
+                // Find the other triangles on edge (a, b).
+                let mut others = 0;
+                let mut seam = false;
+                for &t2 in self.fan(a) {
+                    if t2 as usize == ti {
+                        continue;
+                    }
+                    let tt = self.tri[t2 as usize];
+                    if let Some(kb) = tt.iter().position(|&x| x == b) {
+                        others += 1;
+                        let ka = tt.iter().position(|&x| x == a).unwrap_or(0);
+                        let ka0 = k;
+                        let kb0 = (k + 1) % 3;
+                        if self.wedge(ti as u32, ka0) != self.wedge(t2, ka)
+                            || self.wedge(ti as u32, kb0) != self.wedge(t2, kb)
+                            || self.group(ti as u32) != self.group(t2)
+                        {
+                            seam = true;
+                        }
+                    }
+                }
+                if others == 0 {
+                    f(a, b, ti as u32, VertexKind::Border);
+                } else if others == 1 && seam {
+                    f(a, b, ti as u32, VertexKind::Seam);
+                }
+            }
+        }
+    }
+
+    // ----- classification --------------------------------------------------------
+
+    /// Recomputes the kind and boundary flag of point `p` from its fan (locked points
+    /// stay locked).
+    fn classify(&mut self, p: u32) {
+        let pi = p as usize;
+        if self.kind[pi] == VertexKind::Locked {
+            return;
+        }
+        let fl = self.fan_len[pi] as usize;
+        if fl == 0 {
+            self.kind[pi] = VertexKind::Complex;
+            self.boundary[pi] = false;
+            return;
+        }
+        let small = fl <= 16;
+        let g = if small { 0 } else { self.next_gen() };
+        let mut edges = std::mem::take(&mut self.scratch_edges);
+        let mut parent = std::mem::take(&mut self.scratch_parent);
+        edges.clear();
+        parent.clear();
+        let s = self.fan_start[pi] as usize;
+        for li in 0..fl {
+            let t = self.fans[s + li];
+            parent.push(li as u32);
+            let tt = self.tri[t as usize];
+            let k = tt.iter().position(|&x| x == p).unwrap_or(0);
+            for q in [tt[(k + 1) % 3], tt[(k + 2) % 3]] {
+                let qi = q as usize;
+                // Small fans: linear search (no random access); large: mark/slot.
+                let found = if small {
+                    edges.iter().position(|e| e.q == q)
+                } else if self.mark[qi] == g {
+                    Some(self.slot[qi] as usize)
+                } else {
+                    None
+                };
+                let e = match found {
+                    Some(e) => e,
+                    None => {
+                        if !small {
+                            self.mark[qi] = g;
+                            self.slot[qi] = edges.len() as u32;
+                        }
+                        edges.push(EdgeScratch {
+                            q,
+                            ..EdgeScratch::default()
+                        });
+                        edges.len() - 1
+                    }
+                };
+                let es = &mut edges[e];
+                match es.count {
+                    0 => {
+                        es.t1 = t;
+                        es.l1 = li as u32;
+                    }
+                    1 => {
+                        es.t2 = t;
+                        es.l2 = li as u32;
+                    }
+                    _ => {}
+                }
+                es.count += 1;
+            }
+        }
+        let mut complex = false;
+        let mut nb = 0;
+        let mut ns = 0;
+        for e in &edges {
+            match e.count {
+                1 => nb += 1,
+                2 => {
+                    // join the two triangles of this edge in the fan
+                    let (mut a, mut b) = (e.l1, e.l2);
+                    while parent[a as usize] != a {
+                        a = parent[a as usize];
+                    }
+                    while parent[b as usize] != b {
+                        b = parent[b as usize];
+                    }
+                    if a != b {
+                        parent[a.max(b) as usize] = a.min(b);
+                    }
+                    let ka1 = self.corner_of(e.t1, p);
+                    let ka2 = self.corner_of(e.t2, p);
+                    let kb1 = self.corner_of(e.t1, e.q);
+                    let kb2 = self.corner_of(e.t2, e.q);
+                    if self.wedge(e.t1, ka1) != self.wedge(e.t2, ka2)
+                        || self.wedge(e.t1, kb1) != self.wedge(e.t2, kb2)
+                        || self.group(e.t1) != self.group(e.t2)
+                    {
+                        ns += 1;
+                    }
+                }
+                _ => complex = true,
+            }
+        }
+        let roots = (0..parent.len()).filter(|&i| parent[i] == i as u32).count();
+        if roots != 1 {
+            complex = true;
+        }
+        self.kind[pi] = if complex {
+            VertexKind::Complex
+        } else {
+            match (nb, ns) {
+                (0, 0) => VertexKind::Manifold,
+                (2, 0) => VertexKind::Border,
+                (0, 2) => VertexKind::Seam,
+                _ => VertexKind::Complex,
+            }
+        };
+        self.boundary[pi] = nb > 0;
+        self.scratch_edges = edges;
+        self.scratch_parent = parent;
+    }
+
+    #[inline]
+    fn corner_of(&self, t: u32, p: u32) -> usize {
+        let tt = self.tri[t as usize];
+        if tt[0] == p {
+            0
+        } else if tt[1] == p {
+            1
+        } else {
+            2
+        }
+    }
+
+    /// Replaces `out` with the distinct neighbours of `p`, in fan order.
+    pub fn neighbours(&mut self, p: u32, out: &mut Vec<u32>) {
+        out.clear();
+        let g = self.next_gen();
+        let s = self.fan_start[p as usize] as usize;
+        for i in 0..self.fan_len[p as usize] as usize {
+            let t = self.fans[s + i];
+            for &x in &self.tri[t as usize] {
+                if x != p && self.mark[x as usize] != g {
+                    self.mark[x as usize] = g;
+                    out.push(x);
+                }
+            }
+        }
+    }
+
+    // ----- rules -----------------------------------------------------------------
+
+    /// Whether `a` and `b` share an edge.
+    #[must_use]
+    pub fn shares_edge(&self, a: u32, b: u32) -> bool {
+        self.fan(a)
+            .iter()
+            .any(|&t| self.tri[t as usize].contains(&b))
+    }
+
+    /// Number of triangles on edge `(a, b)` and whether it is a seam (its two
+    /// triangles differ in a wedge or in group).
+    fn edge_info(&self, a: u32, b: u32) -> (u32, bool) {
+        let mut count = 0;
+        let mut ts = [DEAD; 2];
+        for &t in self.fan(a) {
+            if self.tri[t as usize].contains(&b) {
+                if (count as usize) < 2 {
+                    ts[count as usize] = t;
+                }
+                count += 1;
+            }
+        }
+        let seam = count == 2 && {
+            let (t1, t2) = (ts[0], ts[1]);
+            self.wedge(t1, self.corner_of(t1, a)) != self.wedge(t2, self.corner_of(t2, a))
+                || self.wedge(t1, self.corner_of(t1, b)) != self.wedge(t2, self.corner_of(t2, b))
+                || self.group(t1) != self.group(t2)
+        };
+        (count, seam)
+    }
+
+    /// The contractions the operator allows for pair `(a, b)`, or `None` when none is
+    /// (dead points, a non-manifold edge, a non-edge pair when `allow_non_edge` is
+    /// false, or kinds that may not move along this edge).
+    #[must_use]
+    pub fn moves(&self, a: u32, b: u32, allow_non_edge: bool) -> Option<Moves> {
+        if a == b || !self.is_alive(a) || !self.is_alive(b) {
+            return None;
+        }
+        let (ka, kb) = (self.kind(a), self.kind(b));
+        if ka == VertexKind::Manifold && kb == VertexKind::Manifold {
+            let edge = !allow_non_edge || self.shares_edge(a, b);
+            return Some(Moves {
+                a_to_b: true,
+                b_to_a: true,
+                merge: Merge::Anywhere,
+                edge,
+            });
+        }
+        let (count, seam) = self.edge_info(a, b);
+        if count == 0 {
+            if !allow_non_edge {
+                return None;
+            }
+            let free = |k| matches!(k, VertexKind::Manifold | VertexKind::Border);
+            let (fa, fb) = (free(ka), free(kb));
+            if !fa && !fb {
+                return None;
+            }
+            return Some(Moves {
+                a_to_b: fa,
+                b_to_a: fb,
+                merge: if fa && fb { Merge::Anywhere } else { Merge::No },
+                edge: false,
+            });
+        }
+        if count > 2 {
+            return None;
+        }
+        let border_edge = count == 1;
+        let can = |kx: VertexKind, ky: VertexKind| match kx {
+            VertexKind::Manifold => true,
+            VertexKind::Border => {
+                border_edge
+                    && matches!(
+                        ky,
+                        VertexKind::Border | VertexKind::Complex | VertexKind::Locked
+                    )
+            }
+            VertexKind::Seam => {
+                seam && matches!(
+                    ky,
+                    VertexKind::Seam | VertexKind::Complex | VertexKind::Locked
+                )
+            }
+            _ => false,
+        };
+        let (a_to_b, b_to_a) = (can(ka, kb), can(kb, ka));
+        if !a_to_b && !b_to_a {
+            return None;
+        }
+        let merge = match (ka, kb) {
+            (VertexKind::Border, VertexKind::Border) if border_edge => Merge::OnSegment,
+            (VertexKind::Seam, VertexKind::Seam) if seam => Merge::OnSegment,
+            _ => Merge::No,
+        };
+        Some(Moves {
+            a_to_b,
+            b_to_a,
+            merge,
+            edge: true,
+        })
+    }
+
+    // ----- legality --------------------------------------------------------------
+
+    /// Checks whether removing `u` and moving `v` to `p` is legal; on success fills
+    /// `preview` with the triangles that change (for filters).
+    ///
+    /// # Errors
+    /// The first [`Reject`] reason found.
+    pub fn check(
+        &mut self,
+        u: u32,
+        v: u32,
+        p: [f32; 3],
+        limits: &OperatorLimits,
+        preview: &mut Preview,
+    ) -> Result<(), Reject> {
+        preview.changed.clear();
+        preview.removed = u;
+        preview.kept = v;
+        preview.position = p;
+        if u == v || !self.is_alive(u) || !self.is_alive(v) {
+            return Err(Reject::Kind);
+        }
+        if !super::is_movable(self.kind(u)) {
+            return Err(Reject::Kind);
+        }
+        let v_moves = p != self.pos[v as usize];
+        if v_moves && !super::is_movable(self.kind(v)) {
+            return Err(Reject::Kind);
+        }
+        preview.touches_boundary = self.boundary[u as usize] || self.boundary[v as usize];
+
+        if self.fold_angle != limits.fold_over_angle {
+            self.fold_angle = limits.fold_over_angle;
+            self.fold_cos = limits.fold_over_angle.cos();
+        }
+        let geo = Geometry {
+            cos_limit: self.fold_cos,
+            area_eps: self.area_eps,
+            p: f64x3(p),
+        };
+        let mut changed = std::mem::take(&mut preview.changed);
+        let r = self.check_fans(u, v, v_moves, limits, &geo, &mut changed);
+        preview.changed = changed;
+        let dying = r?;
+        preview.edge = dying > 0;
+        Ok(())
+    }
+
+    /// One pass over each fan: dying triangles, the link condition and the geometry
+    /// of the surviving triangles together. Returns the number of dying triangles.
+    fn check_fans(
+        &mut self,
+        u: u32,
+        v: u32,
+        v_moves: bool,
+        limits: &OperatorLimits,
+        geo: &Geometry,
+        changed: &mut Vec<ChangedTriangle>,
+    ) -> Result<usize, Reject> {
+        // Fan of u: dying triangles, apexes, u's neighbours marked, and the
+        // triangles that survive with u moved to p.
+        let g = self.next_gen();
+        let mut dying = 0usize;
+        let mut opp = [DEAD; 2];
+        let mut dying_t = [DEAD; 2];
+        let pu = f64x3(self.pos[u as usize]);
+        let su = self.fan_start[u as usize] as usize;
+        for i in 0..self.fan_len[u as usize] as usize {
+            let t = self.fans[su + i];
+            let tt = self.tri[t as usize];
+            if tt.contains(&v) {
+                if dying == 2 {
+                    return Err(Reject::NonManifoldEdge);
+                }
+                opp[dying] = tt[0] ^ tt[1] ^ tt[2] ^ u ^ v;
+                dying_t[dying] = t;
+                dying += 1;
+            } else {
+                changed.push(self.moved_triangle(t, tt, u, pu, geo)?);
+            }
+            for &x in &tt {
+                if x != u {
+                    self.mark[x as usize] = g;
+                }
+            }
+        }
+        if dying == 0 && !limits.allow_non_edge {
+            return Err(Reject::Pair);
+        }
+        if dying == 2 && self.boundary[u as usize] && self.boundary[v as usize] {
+            return Err(Reject::Link);
+        }
+        // Nothing may vanish: the survivor and every apex keep a triangle (so a
+        // small component is never collapsed away).
+        let left = self.fan_len[u as usize] as usize + self.fan_len[v as usize] as usize;
+        if left <= 2 * dying
+            || opp
+                .iter()
+                .any(|&a| a != DEAD && self.fan_len[a as usize] <= 1)
+        {
+            return Err(Reject::Link);
+        }
+        // An apex keeps an edge to the survivor (else a non-manifold apex joining
+        // two parts would lose this side, splitting a component): some other
+        // triangle around it must touch u or v.
+        for (i, &a) in opp.iter().enumerate().take(dying) {
+            if self.kind[a as usize] != VertexKind::Manifold {
+                let keeps = self.fan(a).iter().any(|&t| {
+                    t != dying_t[i] && {
+                        let tt = self.tri[t as usize];
+                        tt.contains(&u) || tt.contains(&v)
+                    }
+                });
+                if !keeps {
+                    return Err(Reject::Link);
+                }
+            }
+        }
+        // Fan of v: the link condition (common neighbours are exactly the apexes; a
+        // non-edge pair may have none) and the triangles that survive with v moved.
+        let pv = f64x3(self.pos[v as usize]);
+        let sv = self.fan_start[v as usize] as usize;
+        for i in 0..self.fan_len[v as usize] as usize {
+            let t = self.fans[sv + i];
+            let tt = self.tri[t as usize];
+            for &x in &tt {
+                if x != v && x != u && self.mark[x as usize] == g && x != opp[0] && x != opp[1] {
+                    return Err(if dying == 0 {
+                        Reject::Pair
+                    } else {
+                        Reject::Link
+                    });
+                }
+            }
+            if v_moves && !tt.contains(&u) {
+                changed.push(self.moved_triangle(t, tt, v, pv, geo)?);
+            }
+        }
+        if dying == 0 {
+            return Ok(0);
+        }
+        // Duplicate triangles: both u and v have a triangle over the two apexes.
+        // u is a single-fan manifold point, so it can only have one when its fan is
+        // exactly the three triangles (u,v,a), (u,a,b), (u,b,v).
+        if dying == 2 && self.fan_len[u as usize] <= 3 {
+            let has = |s: &Self, w: u32, other: u32| {
+                s.fan(w).iter().any(|&t| {
+                    let tt = s.tri[t as usize];
+                    tt.contains(&opp[0]) && tt.contains(&opp[1]) && !tt.contains(&other)
+                })
+            };
+            if has(self, u, v) && has(self, v, u) {
+                return Err(Reject::Duplicate);
+            }
+        }
+        // Seams: u's wedges map onto v's consistently.
+        if self.tri_wedge.is_some() {
+            let mut map = [(DEAD, DEAD); 2];
+            for (i, &t) in dying_t.iter().take(dying).enumerate() {
+                let wu = self.wedge(t, self.corner_of(t, u));
+                let wv = self.wedge(t, self.corner_of(t, v));
+                map[i] = (wu, wv);
+            }
+            if dying == 2 && map[0].0 == map[1].0 && map[0].1 != map[1].1 {
+                return Err(Reject::Seam);
+            }
+            for &t in self.fan(u) {
+                let wu = self.wedge(t, self.corner_of(t, u));
+                if wu != map[0].0 && wu != map[1].0 {
+                    return Err(Reject::Seam);
+                }
+            }
+        }
+        Ok(dying)
+    }
+
+    /// Triangle `t = tt` with its corner `w` (at `pw`) moved to `geo.p`: refused if it
+    /// degenerates or turns past the fold-over limit. With the other corners `q1`,
+    /// `q2` in order, the normal is `(q2 − q1) × (x − q1)` for the moving corner `x`,
+    /// so old and new share one edge vector.
+    #[inline]
+    fn moved_triangle(
+        &self,
+        t: u32,
+        tt: [u32; 3],
+        w: u32,
+        pw: [f64; 3],
+        geo: &Geometry,
+    ) -> Result<ChangedTriangle, Reject> {
+        let k = if tt[0] == w {
+            0
+        } else if tt[1] == w {
+            1
+        } else {
+            2
+        };
+        let q1 = f64x3(self.pos[tt[(k + 1) % 3] as usize]);
+        let q2 = f64x3(self.pos[tt[(k + 2) % 3] as usize]);
+        let f = sub(q2, q1);
+        let n0 = cross(f, sub(pw, q1));
+        let n1 = cross(f, sub(geo.p, q1));
+        let l1 = dot(n1, n1);
+        if l1 <= geo.area_eps {
+            return Err(Reject::Degenerate);
+        }
+        let d = dot(n0, n1);
+        if d <= geo.cos_limit * (dot(n0, n0) * l1).sqrt() {
+            return Err(Reject::FoldOver);
+        }
+        Ok(ChangedTriangle {
+            triangle: t,
+            old_normal: n0,
+            new_normal: n1,
+            corner: k as u8,
+        })
+    }
+
+    // ----- the collapse ----------------------------------------------------------
+
+    /// Removes `u`, merging it into `v`, and moves `v` to `p`. The caller must have
+    /// had [`Self::check`] accept exactly this collapse. Returns the record (cost and
+    /// error left 0 for the caller to fill in).
+    pub fn collapse(&mut self, u: u32, v: u32, p: [f32; 3]) -> CollapseRecord {
+        let removed_position = self.pos[u as usize];
+        let kept_old_position = self.pos[v as usize];
+        let v_moves = p != kept_old_position;
+        self.kind_changed = [DEAD; 2];
+
+        if v_moves && !self.attrs.is_empty() {
+            self.interpolate_attributes(u, v, p);
+        }
+
+        // Wedge map from the dying triangles.
+        let mut map = [(DEAD, DEAD); 2];
+        let mut nmap = 0;
+        let mut removed_triangles = [DEAD; 2];
+        let mut opp = [DEAD; 2];
+        let mut n_dead = 0;
+        let su = self.fan_start[u as usize] as usize;
+        let lu = self.fan_len[u as usize] as usize;
+        for i in 0..lu {
+            let t = self.fans[su + i];
+            let tt = self.tri[t as usize];
+            if tt.contains(&v) {
+                if self.tri_wedge.is_some() && nmap < 2 {
+                    map[nmap] = (
+                        self.wedge(t, self.corner_of(t, u)),
+                        self.wedge(t, self.corner_of(t, v)),
+                    );
+                    nmap += 1;
+                }
+                let x = tt[0] ^ tt[1] ^ tt[2] ^ u ^ v;
+                self.remove_from_fan(x, t);
+                if n_dead < 2 {
+                    removed_triangles[n_dead] = t;
+                    opp[n_dead] = x;
+                }
+                n_dead += 1;
+                self.tri[t as usize] = [DEAD; 3];
+                self.live_tris -= 1;
+            }
+        }
+        let non_edge = n_dead == 0;
+        for i in 0..lu {
+            let t = self.fans[su + i];
+            let tt = &mut self.tri[t as usize];
+            if tt[0] == DEAD {
+                continue;
+            }
+            let k = if tt[0] == u {
+                0
+            } else if tt[1] == u {
+                1
+            } else {
+                2
+            };
+            tt[k] = v;
+            if let Some(tw) = &mut self.tri_wedge {
+                if non_edge {
+                    self.wedge_point[tw[t as usize][k] as usize] = v;
+                } else {
+                    let w = tw[t as usize][k];
+                    let to = if w == map[0].0 { map[0].1 } else { map[1].1 };
+                    if to != DEAD {
+                        tw[t as usize][k] = to;
+                    }
+                }
+            }
+        }
+
+        // Merge the fans into v.
+        let sv = self.fan_start[v as usize] as usize;
+        let lv = self.fan_len[v as usize] as usize;
+        let live_v = (0..lv)
+            .filter(|&i| self.tri[self.fans[sv + i] as usize][0] != DEAD)
+            .count();
+        let live_u = (0..lu)
+            .filter(|&i| self.tri[self.fans[su + i] as usize][0] != DEAD)
+            .count();
+        let new_len = live_v + live_u;
+        if new_len <= self.fan_cap[v as usize] as usize {
+            let mut w = sv;
+            for i in 0..lv {
+                let t = self.fans[sv + i];
+                if self.tri[t as usize][0] != DEAD {
+                    self.fans[w] = t;
+                    w += 1;
+                }
+            }
+            for i in 0..lu {
+                let t = self.fans[su + i];
+                if self.tri[t as usize][0] != DEAD {
+                    self.fans[w] = t;
+                    w += 1;
+                }
+            }
+        } else {
+            let cap = new_len + new_len / 2 + FAN_SLACK as usize;
+            if self.fan_garbage > self.fans.len() / 4 {
+                self.compact_fans();
+            }
+            let sv = self.fan_start[v as usize] as usize;
+            let su = self.fan_start[u as usize] as usize;
+            let start = self.fans.len();
+            for i in 0..lv {
+                let t = self.fans[sv + i];
+                if self.tri[t as usize][0] != DEAD {
+                    self.fans.push(t);
+                }
+            }
+            for i in 0..lu {
+                let t = self.fans[su + i];
+                if self.tri[t as usize][0] != DEAD {
+                    self.fans.push(t);
+                }
+            }
+            self.fans.resize(start + cap, DEAD);
+            self.fan_garbage += self.fan_cap[v as usize] as usize;
+            self.fan_start[v as usize] = start as u32;
+            self.fan_cap[v as usize] = cap as u32;
+        }
+        self.fan_len[v as usize] = new_len as u32;
+        self.fan_garbage += self.fan_cap[u as usize] as usize;
+        self.fan_len[u as usize] = 0;
+        self.fan_cap[u as usize] = 0;
+        self.pos[v as usize] = p;
+
+        // Kinds: unchanged when everything around was manifold, otherwise recomputed.
+        let ku = self.kind[u as usize];
+        let all_manifold = ku == VertexKind::Manifold
+            && self.kind[v as usize] == VertexKind::Manifold
+            && opp
+                .iter()
+                .all(|&x| x == DEAD || self.kind[x as usize] == VertexKind::Manifold);
+        let boundary_u = self.boundary[u as usize];
+        self.kind[u as usize] = VertexKind::Complex;
+        self.boundary[u as usize] = false;
+        if non_edge {
+            if self.kind[v as usize] != VertexKind::Locked {
+                self.kind[v as usize] = VertexKind::Complex;
+            }
+            self.boundary[v as usize] |= boundary_u;
+        } else if !all_manifold {
+            self.classify(v);
+            for (i, x) in opp.into_iter().enumerate() {
+                if x != DEAD {
+                    let before = (self.kind[x as usize], self.boundary[x as usize]);
+                    self.classify(x);
+                    if before != (self.kind[x as usize], self.boundary[x as usize]) {
+                        self.kind_changed[i] = x;
+                    }
+                }
+            }
+        }
+        if new_len == 0 {
+            self.kind[v as usize] = VertexKind::Complex;
+        }
+
+        CollapseRecord {
+            removed: u,
+            kept: v,
+            removed_position,
+            kept_old_position,
+            position: p,
+            removed_triangles,
+            apexes: opp,
+            non_edge,
+            cost: 0.0,
+            error: 0.0,
+        }
+    }
+
+    /// Apexes of the last collapse whose kind or boundary flag changed ([`DEAD`]
+    /// where none): their pairs need re-evaluating.
+    #[must_use]
+    pub fn kind_changes(&self) -> [u32; 2] {
+        self.kind_changed
+    }
+
+    fn remove_from_fan(&mut self, x: u32, t: u32) {
+        let s = self.fan_start[x as usize] as usize;
+        let l = self.fan_len[x as usize] as usize;
+        if let Some(i) = self.fans[s..s + l].iter().position(|&y| y == t) {
+            self.fans[s + i] = self.fans[s + l - 1];
+            self.fans[s + l - 1] = DEAD;
+            self.fan_len[x as usize] -= 1;
+            if l == 1 {
+                self.fan_garbage += self.fan_cap[x as usize] as usize;
+                self.fan_cap[x as usize] = 0;
+            }
+        }
+    }
+
+    /// The points' kinds after `u` and `v` changed (exposed for tests).
+    #[cfg(test)]
+    pub(crate) fn reclassify_all(&mut self) {
+        for p in 0..self.pos.len() as u32 {
+            if self.kind[p as usize] != VertexKind::Locked {
+                self.classify(p);
+            }
+        }
+    }
+
+    // ----- attributes ------------------------------------------------------------
+
+    /// Interpolates the attributes of every wedge of `v` at the new position `p` from
+    /// the closest point on the pre-collapse triangles around `u` and `v` of the same
+    /// side (wedge) of any seam.
+    fn interpolate_attributes(&mut self, u: u32, v: u32, p: [f32; 3]) {
+        let pn = f64x3(p);
+        let mut plans = std::mem::take(&mut self.scratch_plans);
+        plans.clear();
+        // Target wedges of v and the u-wedge each absorbs.
+        let mut targets: [(u32, u32); 4] = [(DEAD, DEAD); 4];
+        let mut nt = 0;
+        for &t in self.fan(v) {
+            let wv = self.wedge(t, self.corner_of(t, v));
+            let tt = self.tri[t as usize];
+            let wu = if tt.contains(&u) {
+                self.wedge(t, self.corner_of(t, u))
+            } else {
+                DEAD
+            };
+            if let Some(e) = targets[..nt].iter_mut().find(|e| e.0 == wv) {
+                if e.1 == DEAD {
+                    e.1 = wu;
+                }
+            } else if nt < targets.len() {
+                targets[nt] = (wv, wu);
+                nt += 1;
+            }
+        }
+        for &(wv, wu) in &targets[..nt] {
+            let mut best = (f64::INFINITY, DEAD, [0.0; 3]);
+            for (w, c) in [(v, wv), (u, wu)] {
+                if c == DEAD {
+                    continue;
+                }
+                for &t in self.fan(w) {
+                    if self.wedge(t, self.corner_of(t, w)) != c {
+                        continue;
+                    }
+                    let tt = self.tri[t as usize];
+                    let q = tt.map(|x| f64x3(self.pos[x as usize]));
+                    let (d2, bary) = closest_on_triangle(pn, q);
+                    if d2 < best.0 {
+                        best = (d2, t, bary);
+                    }
+                }
+            }
+            if best.1 != DEAD {
+                let t = best.1;
+                let ws = [self.wedge(t, 0), self.wedge(t, 1), self.wedge(t, 2)];
+                plans.push((wv, ws, best.2));
+            }
+        }
+        interpolate_streams(&mut self.attrs, &plans);
+        self.scratch_plans = plans;
+    }
+
+    // ----- output ----------------------------------------------------------------
+
+    /// The live triangles as wedge (input vertex) triples and point triples, with
+    /// their groups.
+    pub(crate) fn output_triangles(&self) -> OutputTriangles {
+        let mut out = Vec::with_capacity(self.live_tris);
+        let mut points = Vec::with_capacity(self.live_tris);
+        let mut groups = self
+            .tri_group
+            .as_ref()
+            .map(|_| Vec::with_capacity(self.live_tris));
+        for (t, tt) in self.tri.iter().enumerate() {
+            if tt[0] == DEAD {
+                continue;
+            }
+            points.push(*tt);
+            out.push([
+                self.wedge(t as u32, 0),
+                self.wedge(t as u32, 1),
+                self.wedge(t as u32, 2),
+            ]);
+            if let (Some(g), Some(tg)) = (&mut groups, &self.tri_group) {
+                g.push(tg[t]);
+            }
+        }
+        (out, points, groups)
+    }
+
+    /// Takes the working attribute streams out (for building the output).
+    pub(crate) fn take_attributes(&mut self) -> VertexAttributes {
+        std::mem::take(&mut self.attrs)
+    }
+}
+
+fn canonical_of_point(representative: &[u32], p: usize) -> u32 {
+    representative[p]
+}
+
+fn sorted3(t: [u32; 3]) -> [u32; 3] {
+    let [mut a, mut b, mut c] = t;
+    if a > b {
+        std::mem::swap(&mut a, &mut b);
+    }
+    if b > c {
+        std::mem::swap(&mut b, &mut c);
+    }
+    if a > b {
+        std::mem::swap(&mut a, &mut b);
+    }
+    [a, b, c]
+}
+
+/// For every vertex, the first vertex with the same point and bitwise-equal
+/// attributes.
+fn canonical_wedges(mesh: &Mesh, weld: &Weld) -> Vec<u32> {
+    let np = weld.point_count();
+    let n = mesh.positions.len();
+    let mut count = vec![0u32; np + 1];
+    for &p in &weld.point_of {
+        count[p as usize + 1] += 1;
+    }
+    for i in 0..np {
+        count[i + 1] += count[i];
+    }
+    let mut order = vec![0u32; n];
+    let mut fill = count.clone();
+    for (v, &p) in weld.point_of.iter().enumerate() {
+        order[fill[p as usize] as usize] = v as u32;
+        fill[p as usize] += 1;
+    }
+    let a = &mesh.attributes;
+    let same = |x: usize, y: usize| -> bool {
+        fn eq<T: Copy + Bits, const N: usize>(s: &Option<Vec<[T; N]>>, x: usize, y: usize) -> bool {
+            s.as_ref().is_none_or(|v| {
+                v[x].iter()
+                    .zip(v[y].iter())
+                    .all(|(a, b)| a.bits() == b.bits())
+            })
+        }
+        eq(&a.normals, x, y)
+            && eq(&a.tangents, x, y)
+            && eq(&a.uv0, x, y)
+            && eq(&a.uv1, x, y)
+            && eq(&a.colors, x, y)
+            && eq(&a.joints, x, y)
+            && eq(&a.weights, x, y)
+    };
+    let mut canonical: Vec<u32> = (0..n as u32).collect();
+    for p in 0..np {
+        let vs = &order[count[p] as usize..count[p + 1] as usize];
+        for (i, &v) in vs.iter().enumerate() {
+            for &w in &vs[..i] {
+                if canonical[w as usize] == w && same(v as usize, w as usize) {
+                    canonical[v as usize] = w;
+                    break;
+                }
+            }
+        }
+    }
+    canonical
+}
+
+/// Bit pattern of an attribute component, for exact comparison.
+trait Bits {
+    fn bits(self) -> u32;
+}
+impl Bits for f32 {
+    fn bits(self) -> u32 {
+        // +0.0 and -0.0 compare equal.
+        (self + 0.0).to_bits()
+    }
+}
+impl Bits for u16 {
+    fn bits(self) -> u32 {
+        u32::from(self)
+    }
+}
+
+/// Closest point on triangle `q` to `p`: squared distance and barycentric weights
+/// (Ericson, *Real-Time Collision Detection*, 5.1.5).
+pub(crate) fn closest_on_triangle(p: [f64; 3], q: [[f64; 3]; 3]) -> (f64, [f64; 3]) {
+    let [a, b, c] = q;
+    let ab = sub(b, a);
+    let ac = sub(c, a);
+    let ap = sub(p, a);
+    let d1 = dot(ab, ap);
+    let d2 = dot(ac, ap);
+    let bary = if d1 <= 0.0 && d2 <= 0.0 {
+        [1.0, 0.0, 0.0]
+    } else {
+        let bp = sub(p, b);
+        let d3 = dot(ab, bp);
+        let d4 = dot(ac, bp);
+        if d3 >= 0.0 && d4 <= d3 {
+            [0.0, 1.0, 0.0]
+        } else {
+            let vc = d1 * d4 - d3 * d2;
+            if vc <= 0.0 && d1 >= 0.0 && d3 <= 0.0 {
+                let v = d1 / (d1 - d3);
+                [1.0 - v, v, 0.0]
+            } else {
+                let cp = sub(p, c);
+                let d5 = dot(ab, cp);
+                let d6 = dot(ac, cp);
+                if d6 >= 0.0 && d5 <= d6 {
+                    [0.0, 0.0, 1.0]
+                } else {
+                    let vb = d5 * d2 - d1 * d6;
+                    if vb <= 0.0 && d2 >= 0.0 && d6 <= 0.0 {
+                        let w = d2 / (d2 - d6);
+                        [1.0 - w, 0.0, w]
+                    } else {
+                        let va = d3 * d6 - d5 * d4;
+                        if va <= 0.0 && (d4 - d3) >= 0.0 && (d5 - d6) >= 0.0 {
+                            let w = (d4 - d3) / ((d4 - d3) + (d5 - d6));
+                            [0.0, 1.0 - w, w]
+                        } else {
+                            let denom = 1.0 / (va + vb + vc);
+                            let v = vb * denom;
+                            let w = vc * denom;
+                            [1.0 - v - w, v, w]
+                        }
+                    }
+                }
+            }
+        }
+    };
+    let bary = if bary.iter().all(|x| x.is_finite()) {
+        bary
+    } else {
+        [1.0, 0.0, 0.0]
+    };
+    let x = [
+        a[0] * bary[0] + b[0] * bary[1] + c[0] * bary[2],
+        a[1] * bary[0] + b[1] * bary[1] + c[1] * bary[2],
+        a[2] * bary[0] + b[2] * bary[1] + c[2] * bary[2],
+    ];
+    let d = sub(p, x);
+    (dot(d, d), bary)
+}
+
+/// Applies interpolation plans `(target wedge, source wedges, weights)` to every
+/// attribute stream; all plans read the values from before any is written.
+fn interpolate_streams(attrs: &mut VertexAttributes, plans: &[(u32, [u32; 3], [f64; 3])]) {
+    fn lerp<const N: usize>(
+        s: &mut Option<Vec<[f32; N]>>,
+        plans: &[(u32, [u32; 3], [f64; 3])],
+        post: impl Fn(&mut [f64; N]),
+    ) {
+        let Some(v) = s else { return };
+        let mut out: [[f32; N]; 4] = [[0.0; N]; 4];
+        for (i, (_, ws, l)) in plans.iter().enumerate().take(4) {
+            let mut acc = [0.0f64; N];
+            for (w, &lw) in ws.iter().zip(l.iter()) {
+                let src = v[*w as usize];
+                for k in 0..N {
+                    acc[k] += lw * f64::from(src[k]);
+                }
+            }
+            post(&mut acc);
+            out[i] = acc.map(|x| x as f32);
+        }
+        for (i, (target, _, _)) in plans.iter().enumerate().take(4) {
+            v[*target as usize] = out[i];
+        }
+    }
+    let normalise3 = |a: &mut [f64; 3]| {
+        let l = (a[0] * a[0] + a[1] * a[1] + a[2] * a[2]).sqrt();
+        if l > 0.0 {
+            a.iter_mut().for_each(|x| *x /= l);
+        }
+    };
+    lerp(&mut attrs.normals, plans, normalise3);
+    // Tangents: direction interpolated and normalised, handedness of the dominant corner.
+    if let Some(t) = &mut attrs.tangents {
+        let mut out = [[0.0f32; 4]; 4];
+        for (i, (_, ws, l)) in plans.iter().enumerate().take(4) {
+            let mut acc = [0.0f64; 3];
+            let mut best = 0;
+            for k in 0..3 {
+                let src = t[ws[k] as usize];
+                for j in 0..3 {
+                    acc[j] += l[k] * f64::from(src[j]);
+                }
+                if l[k] > l[best] {
+                    best = k;
+                }
+            }
+            normalise3(&mut acc);
+            let w = t[ws[best] as usize][3];
+            out[i] = [acc[0] as f32, acc[1] as f32, acc[2] as f32, w];
+        }
+        for (i, (target, _, _)) in plans.iter().enumerate().take(4) {
+            t[*target as usize] = out[i];
+        }
+    }
+    lerp(&mut attrs.uv0, plans, |_| {});
+    lerp(&mut attrs.uv1, plans, |_| {});
+    lerp(&mut attrs.colors, plans, |_| {});
+    // Skinning: accumulate weight per joint over the three corners, keep the four
+    // largest, renormalise.
+    if let (Some(j), Some(wt)) = (&mut attrs.joints, &mut attrs.weights) {
+        let mut out = [([0u16; 4], [0f32; 4]); 4];
+        for (i, (_, ws, l)) in plans.iter().enumerate().take(4) {
+            let mut acc: [(u16, f64); 12] = [(0, 0.0); 12];
+            let mut n = 0;
+            for k in 0..3 {
+                let (jj, ww) = (j[ws[k] as usize], wt[ws[k] as usize]);
+                for m in 0..4 {
+                    let c = l[k] * f64::from(ww[m]);
+                    if let Some(e) = acc[..n].iter_mut().find(|e| e.0 == jj[m]) {
+                        e.1 += c;
+                    } else {
+                        acc[n] = (jj[m], c);
+                        n += 1;
+                    }
+                }
+            }
+            let acc = &mut acc[..n];
+            acc.sort_by(|a, b| b.1.total_cmp(&a.1).then(a.0.cmp(&b.0)));
+            let top = &acc[..n.min(4)];
+            let sum: f64 = top.iter().map(|e| e.1.max(0.0)).sum();
+            let mut jo = [0u16; 4];
+            let mut wo = [0f32; 4];
+            for (m, e) in top.iter().enumerate() {
+                jo[m] = e.0;
+                wo[m] = if sum > 0.0 {
+                    (e.1.max(0.0) / sum) as f32
+                } else {
+                    0.0
+                };
+            }
+            if sum <= 0.0 {
+                wo[0] = 1.0;
+            }
+            out[i] = (jo, wo);
+        }
+        for (i, (target, _, _)) in plans.iter().enumerate().take(4) {
+            j[*target as usize] = out[i].0;
+            wt[*target as usize] = out[i].1;
+        }
+    } else {
+        lerp(&mut attrs.weights, plans, |_| {});
+    }
+}

@@ -1,0 +1,321 @@
+//! Operator tests on tiny hand-made meshes (sketched above each test).
+
+use super::*;
+use crate::mesh::{generate, Mesh, MeshStats};
+
+fn surface(m: &Mesh) -> Surface {
+    Surface::build(m, &BuildOptions::default()).0
+}
+
+/// Every live triangle is in the fan of each of its points and nowhere else; the
+/// live count matches.
+fn assert_consistent(s: &Surface) {
+    let mut live = 0;
+    for t in 0..s.triangle_slots() as u32 {
+        let tt = s.triangle(t);
+        if tt[0] == DEAD {
+            continue;
+        }
+        live += 1;
+        for p in tt {
+            assert!(
+                s.fan(p).contains(&t),
+                "triangle {t} missing from fan of {p}"
+            );
+        }
+    }
+    assert_eq!(live, s.live_triangles());
+    for p in 0..s.point_count() as u32 {
+        for &t in s.fan(p) {
+            assert!(
+                s.triangle(t).contains(&p),
+                "fan of {p} holds foreign triangle {t}"
+            );
+        }
+    }
+}
+
+fn limits() -> OperatorLimits {
+    OperatorLimits::default()
+}
+
+/// Closed tetrahedron: every edge collapse would leave two triangles over the same
+/// three points (the case the link condition alone misses).
+#[test]
+fn tetrahedron_collapse_is_duplicate() {
+    let m = Mesh::from_triangles(
+        vec![
+            [0.0, 0.0, 0.0],
+            [1.0, 0.0, 0.0],
+            [0.0, 1.0, 0.0],
+            [0.0, 0.0, 1.0],
+        ],
+        vec![[0, 2, 1], [0, 1, 3], [1, 2, 3], [0, 3, 2]],
+    );
+    let mut s = surface(&m);
+    assert!(s.kind(0) == VertexKind::Manifold);
+    let mut pv = Preview::default();
+    assert_eq!(
+        s.check(0, 1, s.position(1), &limits(), &mut pv),
+        Err(Reject::Duplicate)
+    );
+}
+
+/// A 2×1 strip; edge 1–4 is interior but both ends are on the border, so
+/// collapsing it would pinch the strip into two parts joined at a point.
+/// ```text
+/// 3---4---5
+/// | / | \ |
+/// 0---1---2
+/// ```
+#[test]
+fn interior_edge_between_border_points_is_refused() {
+    let m = generate::grid(2, 1, |_, _| 0.0);
+    let mut s = surface(&m);
+    assert_eq!(s.kind(1), VertexKind::Border);
+    assert_eq!(s.kind(4), VertexKind::Border);
+    // The operator does not offer the move at all (border only slides along border).
+    assert_eq!(s.moves(1, 4, false), None);
+    let mut pv = Preview::default();
+    assert_eq!(
+        s.check(1, 4, s.position(4), &limits(), &mut pv),
+        Err(Reject::Link)
+    );
+    // Along the border 0–1 it is fine, and the strip stays one piece.
+    let mv = s.moves(0, 1, false).unwrap();
+    assert_eq!(mv.merge, Merge::OnSegment);
+    assert!(s.check(0, 1, s.position(1), &limits(), &mut pv).is_ok());
+    let rec = s.collapse(0, 1, s.position(1));
+    assert_eq!(
+        rec.removed_triangles.iter().filter(|&&t| t != DEAD).count(),
+        1
+    );
+    assert_eq!(s.live_triangles(), 3);
+    assert_consistent(&s);
+}
+
+/// A fan around point 0 in the plane (hexagon); moving the centre far outside
+/// flips triangles; moving it onto a rim edge line makes a zero-area triangle.
+/// ```text
+///    2   1
+///  3   0   6(=1 neighbour)
+///    4   5
+/// ```
+#[test]
+fn fold_over_and_degenerate_are_refused() {
+    let mut pos = vec![[0.0f32, 0.0, 0.0]];
+    for i in 0..6 {
+        let a = std::f32::consts::TAU * i as f32 / 6.0;
+        pos.push([a.cos(), a.sin(), 0.0]);
+    }
+    let tris = (0..6u32).map(|i| [0, 1 + i, 1 + (i + 1) % 6]).collect();
+    let m = Mesh::from_triangles(pos, tris);
+    let mut s = surface(&m);
+    let mut pv = Preview::default();
+    // Collapse rim point 1 into centre 0, moving 0 far to the left: folds over.
+    assert_eq!(
+        s.check(1, 0, [-5.0, 0.0, 0.0], &limits(), &mut pv),
+        Err(Reject::FoldOver)
+    );
+    // Moving 0 onto the line through rim points 3 and 4 (x = -0.75 midpoint of
+    // their chord) makes triangle (0,3,4) degenerate.
+    let p3 = s.position(4);
+    let p4 = s.position(5);
+    let on_chord = [(p3[0] + p4[0]) / 2.0, (p3[1] + p4[1]) / 2.0, 0.0];
+    assert_eq!(
+        s.check(1, 0, on_chord, &limits(), &mut pv),
+        Err(Reject::Degenerate)
+    );
+    // A small move is fine; the preview lists the surviving triangles that change.
+    assert!(s.check(1, 0, [0.1, 0.0, 0.0], &limits(), &mut pv).is_ok());
+    // u=1 loses 2 of its 2 triangles; v=0 keeps 4 triangles that move.
+    assert_eq!(pv.changed.len(), 4);
+    let rec = s.collapse(1, 0, [0.1, 0.0, 0.0]);
+    assert_eq!(rec.removed, 1);
+    assert_eq!(rec.kept_old_position, [0.0, 0.0, 0.0]);
+    assert_eq!(rec.position, [0.1, 0.0, 0.0]);
+    let apexes = {
+        let mut a = rec.apexes;
+        a.sort_unstable();
+        a
+    };
+    assert_eq!(apexes, [2, 6]);
+    assert_eq!(s.live_triangles(), 4);
+    assert!(!s.is_alive(1));
+    assert_consistent(&s);
+}
+
+/// Kinds: an interior point is manifold, a rim point border; a border point may not
+/// be removed onto an interior point, only the other way round.
+#[test]
+fn kinds_decide_directions() {
+    let m = generate::grid(3, 3, |_, _| 0.0);
+    let s = surface(&m);
+    // Point 5 = (1,1) interior, point 1 = (1,0) border.
+    assert_eq!(s.kind(5), VertexKind::Manifold);
+    assert_eq!(s.kind(1), VertexKind::Border);
+    let mv = s.moves(1, 5, false).unwrap();
+    assert!(!mv.a_to_b && mv.b_to_a && mv.merge == Merge::No);
+}
+
+/// A bow-tie point is complex: it never moves, but others may collapse onto it.
+/// ```text
+///  1       3
+///  | \   / |
+///  2--0---4
+/// ```
+#[test]
+fn complex_point_never_moves() {
+    let m = Mesh::from_triangles(
+        vec![
+            [0.0, 0.0, 0.0],
+            [-1.0, 1.0, 0.0],
+            [-1.0, 0.0, 0.0],
+            [1.0, 1.0, 0.0],
+            [1.0, 0.0, 0.0],
+        ],
+        vec![[0, 1, 2], [0, 4, 3]],
+    );
+    let mut s = surface(&m);
+    assert_eq!(s.kind(0), VertexKind::Complex);
+    let mv = s.moves(0, 1, false).unwrap();
+    assert!(!mv.a_to_b && mv.b_to_a);
+    let mut pv = Preview::default();
+    assert_eq!(
+        s.check(0, 1, s.position(1), &limits(), &mut pv),
+        Err(Reject::Kind)
+    );
+    assert_eq!(
+        s.check(1, 0, [0.5, 0.0, 0.0], &limits(), &mut pv),
+        Err(Reject::Kind)
+    );
+}
+
+/// Collapses on a closed sphere keep the fans consistent and the mesh manifold.
+#[test]
+fn many_collapses_stay_consistent() {
+    let m = generate::icosphere(2);
+    let mut s = surface(&m);
+    let mut pv = Preview::default();
+    let mut nb = Vec::new();
+    let mut done = 0;
+    for p in 0..s.point_count() as u32 {
+        if !s.is_alive(p) || s.kind(p) != VertexKind::Manifold {
+            continue;
+        }
+        s.neighbours(p, &mut nb);
+        let q = nb[0];
+        let target = s.position(q);
+        if s.check(p, q, target, &limits(), &mut pv).is_ok() {
+            s.collapse(p, q, target);
+            done += 1;
+            assert_consistent(&s);
+        }
+    }
+    assert!(done > 20);
+    assert_eq!(s.live_triangles(), 320 - 2 * done);
+    s.reclassify_all();
+    for p in 0..s.point_count() as u32 {
+        if s.is_alive(p) {
+            assert_eq!(s.kind(p), VertexKind::Manifold);
+        }
+    }
+}
+
+/// Non-edge contraction: allowed only when enabled, refused when the two points
+/// share a neighbour.
+#[test]
+fn non_edge_contraction() {
+    // Two separate triangles 0-1-2 and 3-4-5.
+    let m = Mesh::from_triangles(
+        vec![
+            [0.0, 0.0, 0.0],
+            [1.0, 0.0, 0.0],
+            [0.0, 1.0, 0.0],
+            [0.1, 0.0, 1.0],
+            [1.0, 0.0, 1.0],
+            [0.0, 1.0, 1.0],
+        ],
+        vec![[0, 1, 2], [3, 4, 5]],
+    );
+    let mut s = surface(&m);
+    let mut pv = Preview::default();
+    assert_eq!(s.moves(0, 3, false), None);
+    assert_eq!(
+        s.check(3, 0, s.position(0), &limits(), &mut pv),
+        Err(Reject::Pair)
+    );
+    let allow = OperatorLimits {
+        allow_non_edge: true,
+        ..limits()
+    };
+    assert!(s.moves(0, 3, true).is_some_and(|m| !m.edge));
+    assert!(s.check(3, 0, s.position(0), &allow, &mut pv).is_ok());
+    let rec = s.collapse(3, 0, s.position(0));
+    assert!(rec.non_edge);
+    assert_eq!(s.live_triangles(), 2);
+    assert_eq!(s.kind(0), VertexKind::Complex);
+    assert_consistent(&s);
+}
+
+/// Repair at build time: degenerate and duplicate triangles leave, counted.
+#[test]
+fn build_repairs() {
+    let m = Mesh::from_triangles(
+        vec![
+            [0.0, 0.0, 0.0],
+            [1.0, 0.0, 0.0],
+            [0.0, 1.0, 0.0],
+            [2.0, 0.0, 0.0],
+        ],
+        vec![[0, 1, 2], [2, 1, 0], [0, 1, 1], [0, 1, 3]],
+    );
+    let (s, r) = Surface::build(&m, &BuildOptions::default());
+    assert_eq!(
+        r,
+        Repair {
+            degenerate_triangles: 2,
+            duplicate_triangles: 1
+        }
+    );
+    assert_eq!(s.live_triangles(), 1);
+    assert_consistent(&s);
+    let st = MeshStats::of(&m);
+    assert_eq!(st.topology.degenerate_triangles, 2);
+}
+
+/// Three triangles chained through two bow-tie points: (u,v,x) links the fan of v
+/// (v,y,z) with the fan of x (x,s,t). Removing u along the border edge u–v would
+/// delete (u,v,x) and split the component in two, so it is refused.
+/// ```text
+///   y--z       s--t
+///    \ |        | /
+///      v --u-- x        (u,v,x) is the only link between v's and x's parts
+/// ```
+#[test]
+fn collapse_never_splits_a_component() {
+    let m = Mesh::from_triangles(
+        vec![
+            [0.0, 0.0, 0.0],  // 0 x
+            [-1.0, 0.5, 0.0], // 1 u
+            [-2.0, 0.0, 0.0], // 2 v
+            [-3.0, 1.0, 0.0], // 3 y
+            [-2.0, 1.0, 0.0], // 4 z
+            [1.0, 1.0, 0.0],  // 5 s
+            [2.0, 1.0, 0.0],  // 6 t
+        ],
+        vec![[1, 2, 0], [2, 3, 4], [0, 5, 6]],
+    );
+    let mut s = surface(&m);
+    assert_eq!(s.kind(1), VertexKind::Border);
+    assert_eq!(s.kind(2), VertexKind::Complex);
+    assert_eq!(s.kind(0), VertexKind::Complex);
+    let mv = s.moves(1, 2, false).unwrap();
+    assert!(mv.a_to_b);
+    let mut pv = Preview::default();
+    assert_eq!(
+        s.check(1, 2, s.position(2), &limits(), &mut pv),
+        Err(Reject::Link)
+    );
+    assert_eq!(MeshStats::of(&m).topology.components, 1);
+}

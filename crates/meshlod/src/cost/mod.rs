@@ -1,0 +1,54 @@
+//! Cost models: the *criteria* half that ranks collapses (see `DESIGN.md`).
+//!
+//! A [`CostModel`] owns its per-vertex state (for [`Qem`]: one quadric per point),
+//! proposes a [`Candidate`] — which point goes, where the survivor is placed, the
+//! cost that orders the queue and the error it stands for as a distance — and
+//! updates its state after each performed collapse. It never decides legality: the
+//! operator ([`crate::collapse`]) says which moves are allowed ([`Moves`]) and the
+//! filters ([`crate::filter`]) may veto.
+//!
+//! Cost models are directional where they need to be: a candidate names the
+//! `removed` and the `kept` point, so a half-edge cost (Melax's `u → v`) is expressed
+//! by evaluating both directions the [`Moves`] allow and returning the better.
+
+mod qem;
+
+pub use qem::{Placement, Qem, QemOptions};
+
+use crate::collapse::{CollapseRecord, Moves, Surface};
+
+/// A proposed contraction of a pair.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Candidate {
+    /// The point that disappears.
+    pub removed: u32,
+    /// The point that survives.
+    pub kept: u32,
+    /// Where the survivor is placed (absolute coordinates, mesh units).
+    pub position: [f64; 3],
+    /// The priority: lower goes first. Any non-negative finite value.
+    pub cost: f64,
+    /// The geometric error the collapse stands for, as a distance in mesh units
+    /// (what the stop rule's maximum error and the report use).
+    pub error: f64,
+}
+
+/// Ranks collapses and keeps the per-vertex state that ranking needs.
+///
+/// The driver calls [`CostModel::init`] once, [`CostModel::evaluate`] for every pair
+/// it considers (also again when a queued pair is popped, to get its position), and
+/// [`CostModel::collapsed`] after every performed collapse.
+pub trait CostModel {
+    /// A short name for reports (`"qem"`).
+    fn name(&self) -> &'static str;
+
+    /// Builds the per-point state from the initial surface.
+    fn init(&mut self, surface: &Surface);
+
+    /// The best contraction of pair `(a, b)` among those `moves` allows, or `None`
+    /// when the model proposes none.
+    fn evaluate(&self, surface: &Surface, a: u32, b: u32, moves: &Moves) -> Option<Candidate>;
+
+    /// Updates the state after `record` was performed (`surface` is already updated).
+    fn collapsed(&mut self, surface: &Surface, record: &CollapseRecord);
+}

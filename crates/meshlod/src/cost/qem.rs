@@ -1,0 +1,209 @@
+//! The quadric error metric cost model (Garland & Heckbert 1997).
+//!
+//! Every point starts with the sum of the area-weighted plane quadrics of its
+//! triangles, plus constraint planes for border edges (weight
+//! [`QemOptions::boundary_weight`]) and for attribute-seam / material-border edges
+//! (weight [`QemOptions::seam_weight`]). Contracting `(a, b)` costs `Δ(x̄) = x̄ᵀ(Q_a +
+//! Q_b)x̄` at the chosen position, and the survivor accumulates `Q_a + Q_b` (plain
+//! accumulation, as in the paper).
+//!
+//! Placement ([`Placement::Optimal`]): where both points may move freely, the
+//! minimiser of the summed quadric, solved relative to the edge midpoint and accepted
+//! only when well conditioned and within reach of the edge; otherwise the minimum
+//! along the edge (which includes both endpoints and the midpoint). A border or seam
+//! pair is placed on its segment; a half-edge collapse onto a fixed point evaluates
+//! that point.
+//!
+//! The queue cost is the quadric value itself (an area-weighted sum of squared
+//! distances); the reported error is [`Quadric::distance`] of it: the area-weighted
+//! RMS distance to the accumulated planes.
+
+use super::{Candidate, CostModel};
+use crate::collapse::{CollapseRecord, Merge, Moves, Surface};
+use crate::mesh::VertexKind;
+use crate::quadric::{cross, sub, Quadric, DEFAULT_CONDITION};
+
+/// Where a free contraction puts the merged vertex.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Placement {
+    /// The quadric minimiser, with fallback along the edge (default).
+    #[default]
+    Optimal,
+    /// The better endpoint (half-edge collapse; vertices never move).
+    Endpoint,
+    /// The edge midpoint.
+    Midpoint,
+}
+
+/// Settings of [`Qem`].
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct QemOptions {
+    /// Weight of the border constraint planes, relative to an area weight
+    /// (a plane through a border edge of length `l` gets weight `w · l²`). Default 10.
+    pub boundary_weight: f64,
+    /// Weight of the constraint planes along attribute seams and material borders.
+    /// Default 0.5.
+    pub seam_weight: f64,
+    /// Conditioning threshold of the 3×3 solve ([`DEFAULT_CONDITION`]).
+    pub condition: f64,
+    /// How far (in edge lengths from the midpoint) a solved position may lie before
+    /// the fallback along the edge is used. Default 2.
+    pub max_reach: f64,
+    /// Placement rule.
+    pub placement: Placement,
+}
+
+impl Default for QemOptions {
+    fn default() -> Self {
+        Self {
+            boundary_weight: 10.0,
+            seam_weight: 0.5,
+            condition: DEFAULT_CONDITION,
+            max_reach: 2.0,
+            placement: Placement::Optimal,
+        }
+    }
+}
+
+/// The quadric error metric cost model. Per-point state: one [`Quadric`].
+#[derive(Debug, Clone, Default)]
+pub struct Qem {
+    options: QemOptions,
+    quadrics: Vec<Quadric>,
+}
+
+impl Qem {
+    /// A QEM cost model with `options`.
+    #[must_use]
+    pub fn new(options: QemOptions) -> Self {
+        Self {
+            options,
+            quadrics: Vec::new(),
+        }
+    }
+
+    /// The quadric of point `p` (zero before [`CostModel::init`]).
+    #[must_use]
+    pub fn quadric(&self, p: u32) -> Quadric {
+        self.quadrics
+            .get(p as usize)
+            .copied()
+            .unwrap_or(Quadric::ZERO)
+    }
+
+    fn candidate(q: &Quadric, removed: u32, kept: u32, x: [f64; 3], c: [f64; 3]) -> Candidate {
+        let cost = q.evaluate(x).max(0.0);
+        Candidate {
+            removed,
+            kept,
+            position: [x[0] + c[0], x[1] + c[1], x[2] + c[2]],
+            cost,
+            error: q.distance(cost),
+        }
+    }
+}
+
+impl Qem {
+    /// Half-edge collapse of `removed` onto `kept`, at `kept`'s exact position.
+    fn at_point(q: &Quadric, surface: &Surface, removed: u32, kept: u32) -> Candidate {
+        let cost = q.evaluate(surface.local(kept)).max(0.0);
+        Candidate {
+            removed,
+            kept,
+            position: surface.position(kept).map(f64::from),
+            cost,
+            error: q.distance(cost),
+        }
+    }
+}
+
+impl CostModel for Qem {
+    fn name(&self) -> &'static str {
+        "qem"
+    }
+
+    fn init(&mut self, surface: &Surface) {
+        let n = surface.point_count();
+        self.quadrics.clear();
+        self.quadrics.resize(n, Quadric::ZERO);
+        for t in 0..surface.triangle_slots() as u32 {
+            let tt = surface.triangle(t);
+            if tt[0] == crate::collapse::DEAD {
+                continue;
+            }
+            let [a, b, c] = tt.map(|p| surface.local(p));
+            if let Some(q) = Quadric::from_triangle(a, b, c) {
+                for p in tt {
+                    self.quadrics[p as usize].add(&q);
+                }
+            }
+        }
+        let (wb, ws) = (self.options.boundary_weight, self.options.seam_weight);
+        surface.for_each_feature_edge(|a, b, t, kind| {
+            let w = if kind == VertexKind::Border { wb } else { ws };
+            if w <= 0.0 {
+                return;
+            }
+            let tt = surface.triangle(t);
+            let [p0, p1, p2] = tt.map(|p| surface.local(p));
+            let normal = cross(sub(p1, p0), sub(p2, p0));
+            if let Some(q) =
+                Quadric::from_boundary_edge(surface.local(a), surface.local(b), normal, w)
+            {
+                self.quadrics[a as usize].add(&q);
+                self.quadrics[b as usize].add(&q);
+            }
+        });
+    }
+
+    fn evaluate(&self, surface: &Surface, a: u32, b: u32, moves: &Moves) -> Option<Candidate> {
+        let q = self.quadrics[a as usize].sum(&self.quadrics[b as usize]);
+        let (pa, pb) = (surface.local(a), surface.local(b));
+        let c = surface.center();
+        let (keep, drop) = if a < b { (a, b) } else { (b, a) };
+        match (moves.merge, self.options.placement) {
+            (Merge::Anywhere, Placement::Optimal) => {
+                let m = q.minimize(pa, pb, self.options.condition, self.options.max_reach);
+                return Some(Self::candidate(&q, drop, keep, m.position, c));
+            }
+            (Merge::OnSegment, Placement::Optimal) => {
+                let (t, x, _) = q.minimize_on_segment(pa, pb);
+                // At an end: a half-edge collapse onto that end, position exact.
+                let cand = if t == 0.0 {
+                    Self::at_point(&q, surface, b, a)
+                } else if t == 1.0 {
+                    Self::at_point(&q, surface, a, b)
+                } else {
+                    Self::candidate(&q, drop, keep, x, c)
+                };
+                return Some(cand);
+            }
+            (Merge::Anywhere | Merge::OnSegment, Placement::Midpoint) => {
+                let x = [
+                    0.5 * (pa[0] + pb[0]),
+                    0.5 * (pa[1] + pb[1]),
+                    0.5 * (pa[2] + pb[2]),
+                ];
+                return Some(Self::candidate(&q, drop, keep, x, c));
+            }
+            _ => {}
+        }
+        let mut best: Option<Candidate> = None;
+        if moves.a_to_b {
+            best = Some(Self::at_point(&q, surface, a, b));
+        }
+        if moves.b_to_a {
+            let cand = Self::at_point(&q, surface, b, a);
+            if best.is_none_or(|x| (cand.cost, cand.removed) < (x.cost, x.removed)) {
+                best = Some(cand);
+            }
+        }
+        best
+    }
+
+    fn collapsed(&mut self, _surface: &Surface, record: &CollapseRecord) {
+        let r = self.quadrics[record.removed as usize];
+        self.quadrics[record.kept as usize].add(&r);
+    }
+}

@@ -1,0 +1,386 @@
+//! The edge-collapse driver: a priority queue of pair contractions with lazy
+//! invalidation.
+//!
+//! 1. Every edge (and every extra non-edge pair) is evaluated by the cost model and
+//!    queued by cost; ties are broken by point ids, so runs are deterministic.
+//! 2. The cheapest entry is popped. Entries carry a stamp of their points' versions
+//!    and are dropped when stale. The candidate is re-evaluated (its position is not
+//!    stored), checked against the maximum error, the operator's legality and the
+//!    filters, and performed.
+//! 3. The survivor's version is bumped and its pairs are re-queued: O(valence) work
+//!    per collapse.
+//!    When a merged placement would fold a triangle over, the same pair is queued
+//!    again restricted to half-edge collapses onto either end, at that cost.
+//! 4. When the queue runs dry before the target, all pairs are queued again (pairs
+//!    rejected earlier may have become legal); if soft filters vetoed anything they
+//!    are then switched off. A re-scan that performs nothing ends the run.
+
+use super::heap::{Heap, Item};
+use super::{Observer, Outcome, Rejections, StopReason, StopRule};
+use crate::collapse::{Merge, Moves, OperatorLimits, Preview, Reject, Surface};
+use crate::cost::CostModel;
+use crate::filter::Filter;
+
+/// Settings of [`run`].
+#[derive(Debug, Clone, Default)]
+pub struct EdgeCollapseOptions {
+    /// Limits of the operator's geometric checks (and whether non-edge pairs may be
+    /// contracted).
+    pub limits: OperatorLimits,
+    /// When to stop.
+    pub stop: StopRule,
+    /// Extra non-edge pairs to consider (point ids), e.g. from
+    /// [`crate::simplify::SimplifyOptions::pair_threshold`].
+    pub extra_pairs: Vec<[u32; 2]>,
+}
+
+/// Full re-scans allowed after the queue runs dry.
+const MAX_RESCANS: usize = 8;
+/// Collapses between progress callbacks.
+const PROGRESS_EVERY: usize = 4096;
+
+struct Driver<'a, C: CostModel + ?Sized> {
+    surface: &'a mut Surface,
+    cost: &'a mut C,
+    filters: &'a [&'a dyn Filter],
+    limits: OperatorLimits,
+    version: Vec<u32>,
+    heap: Heap,
+    partners: Vec<Vec<u32>>,
+    forward: Vec<u32>,
+    scratch: Vec<u32>,
+    soft_on: bool,
+}
+
+impl<C: CostModel + ?Sized> Driver<'_, C> {
+    /// Stamp of an entry for `(a, b)`: the sum of the versions, shifted, with the
+    /// low bit saying "endpoint placement only" (a fallback entry).
+    #[inline]
+    fn stamp(&self, a: u32, b: u32, endpoint_only: bool) -> u32 {
+        (self.version[a as usize].wrapping_add(self.version[b as usize]) << 1)
+            | u32::from(endpoint_only)
+    }
+
+    /// The moves of `(a, b)`, restricted to half-edge collapses for a fallback entry.
+    fn moves(&self, a: u32, b: u32, endpoint_only: bool) -> Option<Moves> {
+        let mut m = self.surface.moves(a, b, self.limits.allow_non_edge)?;
+        if endpoint_only {
+            if !(m.a_to_b || m.b_to_a) {
+                return None;
+            }
+            m.merge = Merge::No;
+        }
+        Some(m)
+    }
+
+    fn entry_with(&self, a: u32, b: u32, endpoint_only: bool) -> Option<Item> {
+        let m = self.moves(a, b, endpoint_only)?;
+        let c = self.cost.evaluate(self.surface, a, b, &m)?;
+        Some(
+            Item {
+                a,
+                b,
+                stamp: self.stamp(a, b, endpoint_only),
+                cost_bits: 0,
+            }
+            .with_cost(c.cost),
+        )
+    }
+
+    fn entry(&self, a: u32, b: u32) -> Option<Item> {
+        self.entry_with(a, b, false)
+    }
+
+    fn resolve(&mut self, mut x: u32) -> u32 {
+        while self.forward[x as usize] != x {
+            let n = self.forward[x as usize];
+            self.forward[x as usize] = self.forward[n as usize];
+            x = n;
+        }
+        x
+    }
+
+    /// Queues every edge and extra pair (unordered, then heapified).
+    fn push_all(&mut self) {
+        self.heap.clear();
+        let mut nb = std::mem::take(&mut self.scratch);
+        for p in 0..self.surface.point_count() as u32 {
+            if !self.surface.is_alive(p) {
+                continue;
+            }
+            self.surface.neighbours(p, &mut nb);
+            for &q in &nb {
+                if q > p {
+                    if let Some(e) = self.entry(p, q) {
+                        self.heap.push_unordered(e);
+                    }
+                }
+            }
+        }
+        for p in 0..self.partners.len() {
+            for i in 0..self.partners[p].len() {
+                let q = self.partners[p][i];
+                let (a, b) = (self.resolve(p as u32), self.resolve(q));
+                if a < b {
+                    if let Some(e) = self.entry(a, b) {
+                        self.heap.push_unordered(e);
+                    }
+                }
+            }
+        }
+        self.scratch = nb;
+        self.heap.heapify();
+    }
+
+    /// Re-queues the pairs of `v` after it changed.
+    fn push_around(&mut self, v: u32) {
+        let mut nb = std::mem::take(&mut self.scratch);
+        self.surface.neighbours(v, &mut nb);
+        for &q in &nb {
+            if let Some(e) = self.entry(v, q) {
+                self.heap.push(e);
+            }
+        }
+        if !self.partners.is_empty() {
+            nb.clear();
+            nb.extend_from_slice(&self.partners[v as usize]);
+            for &q in &nb {
+                let q = self.resolve(q);
+                if q != v {
+                    if let Some(e) = self.entry(v, q) {
+                        self.heap.push(e);
+                    }
+                }
+            }
+        }
+        self.scratch = nb;
+    }
+
+    fn valid(&self, e: &Item) -> bool {
+        let (a, b) = (e.a, e.b);
+        self.stamp(a, b, e.stamp & 1 == 1) == e.stamp
+            && self.surface.is_alive(a)
+            && self.surface.is_alive(b)
+    }
+}
+
+/// Simplifies `surface` in place with `cost` and `filters` until `options.stop`
+/// holds or nothing legal is left. `observer` sees the start, every collapse and
+/// periodic progress.
+pub fn run<C: CostModel + ?Sized>(
+    surface: &mut Surface,
+    cost: &mut C,
+    filters: &[&dyn Filter],
+    options: &EdgeCollapseOptions,
+    observer: &mut dyn Observer,
+) -> Outcome {
+    let stop = options.stop;
+    let mut out = Outcome {
+        stop_reason: StopReason::NoLegalCollapse,
+        stop_detail: String::new(),
+        collapses: 0,
+        non_edge_contractions: 0,
+        max_error: 0.0,
+        rejections: Rejections::default(),
+        rescans: 0,
+        soft_filters_relaxed: false,
+    };
+    if surface.live_triangles() == 0 {
+        out.stop_reason = StopReason::EmptyInput;
+        out.stop_detail = "the input has no triangles".into();
+        return out;
+    }
+    observer.started(surface.live_triangles(), stop.target_triangles);
+    cost.init(surface);
+    let np = surface.point_count();
+    let mut partners: Vec<Vec<u32>> = Vec::new();
+    let mut forward = Vec::new();
+    if !options.extra_pairs.is_empty() && options.limits.allow_non_edge {
+        partners = vec![Vec::new(); np];
+        forward = (0..np as u32).collect();
+        for &[a, b] in &options.extra_pairs {
+            if (a as usize) < np && (b as usize) < np && a != b {
+                partners[a.min(b) as usize].push(a.max(b));
+            }
+        }
+    }
+    let mut d = Driver {
+        surface,
+        cost,
+        filters,
+        limits: options.limits,
+        version: vec![0; np],
+        heap: Heap::with_capacity(3 * np),
+        partners,
+        forward,
+        scratch: Vec::new(),
+        soft_on: true,
+    };
+    d.push_all();
+    let mut preview = Preview::default();
+    let mut since_scan = 0usize;
+    let mut soft_vetoes = 0usize;
+    let mut error_blocked_since_scan = 0usize;
+    loop {
+        if d.surface.live_triangles() <= stop.target_triangles {
+            out.stop_reason = StopReason::TargetReached;
+            out.stop_detail = format!("reached the target of {} triangles", stop.target_triangles);
+            break;
+        }
+        let Some(e) = d.heap.pop() else {
+            let relax = d.soft_on && soft_vetoes > 0;
+            if (since_scan > 0 && out.rescans < MAX_RESCANS) || relax {
+                if since_scan == 0 && relax {
+                    d.soft_on = false;
+                    out.soft_filters_relaxed = true;
+                }
+                out.rescans += 1;
+                since_scan = 0;
+                soft_vetoes = 0;
+                error_blocked_since_scan = 0;
+                d.push_all();
+                continue;
+            }
+            if error_blocked_since_scan > 0 {
+                out.stop_reason = StopReason::MaxError;
+                out.stop_detail = format!(
+                    "every remaining collapse would exceed the maximum error ({:.6e})",
+                    stop.max_error.unwrap_or(0.0)
+                );
+            } else {
+                out.stop_reason = StopReason::NoLegalCollapse;
+                let (mut live, mut fixed) = (0usize, 0usize);
+                for p in 0..d.surface.point_count() as u32 {
+                    if d.surface.is_alive(p) {
+                        live += 1;
+                        if !crate::collapse::is_movable(d.surface.kind(p)) {
+                            fixed += 1;
+                        }
+                    }
+                }
+                let r = &out.rejections;
+                out.stop_detail = format!(
+                    "no legal collapse left: {fixed} of the {live} points left may not move \
+                     (seam or material-border junctions, non-manifold or locked points); \
+                     rejected so far: link {}, fold-over {}, degenerate {}, duplicate {}, \
+                     seam {}, kind {}, non-manifold edge {}, filters {}",
+                    r.link,
+                    r.fold_over,
+                    r.degenerate,
+                    r.duplicate,
+                    r.seam,
+                    r.kind,
+                    r.non_manifold_edge,
+                    r.filter
+                );
+            }
+            break;
+        };
+        if !d.valid(&e) {
+            continue;
+        }
+        // Recompute the candidate (same inputs as at push time, so the same result).
+        let endpoint_only = e.stamp & 1 == 1;
+        let Some(m) = d.moves(e.a, e.b, endpoint_only) else {
+            continue;
+        };
+        let Some(c) = d.cost.evaluate(d.surface, e.a, e.b, &m) else {
+            continue;
+        };
+        if stop.max_error.is_some_and(|me| c.error > me) {
+            out.rejections.max_error += 1;
+            error_blocked_since_scan += 1;
+            continue;
+        }
+        let p = c.position.map(|x| x as f32);
+        if let Err(r) = d
+            .surface
+            .check(c.removed, c.kept, p, &d.limits, &mut preview)
+        {
+            // A merged placement that folds over or degenerates may still be fine
+            // as a half-edge collapse onto either end: queue that as a fallback
+            // entry, at its own cost.
+            if !endpoint_only
+                && m.merge != Merge::No
+                && matches!(r, Reject::FoldOver | Reject::Degenerate)
+            {
+                if let Some(alt) = d.entry_with(e.a, e.b, true) {
+                    d.heap.push(alt);
+                }
+            }
+            let rj = &mut out.rejections;
+            match r {
+                Reject::Kind => rj.kind += 1,
+                Reject::NonManifoldEdge => rj.non_manifold_edge += 1,
+                Reject::Link => rj.link += 1,
+                Reject::Duplicate => rj.duplicate += 1,
+                Reject::Seam => rj.seam += 1,
+                Reject::FoldOver => rj.fold_over += 1,
+                Reject::Degenerate => rj.degenerate += 1,
+                Reject::Pair => rj.pair += 1,
+            }
+            continue;
+        }
+        let mut vetoed = false;
+        for f in d.filters {
+            if f.is_soft() && !d.soft_on {
+                continue;
+            }
+            if !f.allow(d.surface, &preview) {
+                vetoed = true;
+                if f.is_soft() {
+                    soft_vetoes += 1;
+                }
+                break;
+            }
+        }
+        if vetoed {
+            out.rejections.filter += 1;
+            continue;
+        }
+        let mut record = d.surface.collapse(c.removed, c.kept, p);
+        record.cost = c.cost;
+        record.error = c.error;
+        d.cost.collapsed(d.surface, &record);
+        out.collapses += 1;
+        since_scan += 1;
+        if record.non_edge {
+            out.non_edge_contractions += 1;
+        }
+        out.max_error = out.max_error.max(record.error);
+        observer.collapsed(&record);
+        if out.collapses % PROGRESS_EVERY == 0 {
+            observer.progress(d.surface.live_triangles());
+        }
+        let (u, v) = (record.removed, record.kept);
+        d.version[v as usize] = d.version[v as usize].wrapping_add(1);
+        if !d.partners.is_empty() {
+            d.forward[u as usize] = v;
+            let moved = std::mem::take(&mut d.partners[u as usize]);
+            d.partners[v as usize].extend(moved);
+        }
+        // Apexes whose kind may have changed get re-queued too.
+        for x in d.surface.kind_changes() {
+            if x != crate::collapse::DEAD && d.surface.is_alive(x) {
+                d.version[x as usize] = d.version[x as usize].wrapping_add(1);
+                d.push_around(x);
+            }
+        }
+        d.push_around(v);
+        // Drop stale entries once the queue holds more than ~2 entries per live
+        // triangle (there are ~1.5 live pairs per triangle): bounds its memory.
+        if d.heap.len() > 2 * d.surface.live_triangles() + 4096 {
+            let version = &d.version;
+            let surface = &*d.surface;
+            d.heap.retain(|e| {
+                let (a, b) = (e.a, e.b);
+                surface.is_alive(a)
+                    && surface.is_alive(b)
+                    && (version[a as usize].wrapping_add(version[b as usize]) << 1) | (e.stamp & 1)
+                        == e.stamp
+            });
+        }
+    }
+    observer.progress(d.surface.live_triangles());
+    out
+}

@@ -1,0 +1,149 @@
+//! Decimation drivers: the *strategy* half (see `DESIGN.md`) — which candidate goes
+//! next, and when to stop.
+//!
+//! [`edge_collapse`] runs any [`crate::cost::CostModel`] with any
+//! [`crate::filter::Filter`]s over the always-on collapse operator
+//! ([`crate::collapse`]), in cost order from a priority queue with lazy
+//! invalidation, until the [`StopRule`] holds; it reports through an [`Observer`]
+//! and returns an [`Outcome`] that says why it stopped. Vertex-removal (Schroeder)
+//! and clustering drivers will sit beside it.
+
+pub mod edge_collapse;
+mod heap;
+
+use crate::collapse::CollapseRecord;
+use serde::Serialize;
+
+/// When to stop: whichever comes first.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct StopRule {
+    /// Stop once at most this many triangles are left.
+    pub target_triangles: usize,
+    /// Never perform a collapse whose error (a distance in mesh units) exceeds this.
+    pub max_error: Option<f64>,
+}
+
+/// Why a run stopped.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum StopReason {
+    /// The triangle count reached the target.
+    TargetReached,
+    /// Every remaining collapse would exceed the maximum error.
+    MaxError,
+    /// No collapse is legal any more (topology, kinds, fold-overs, filters).
+    NoLegalCollapse,
+    /// The input had no triangles (after repair).
+    EmptyInput,
+}
+
+impl StopReason {
+    /// The snake-case name used in JSON reports.
+    #[must_use]
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Self::TargetReached => "target_reached",
+            Self::MaxError => "max_error",
+            Self::NoLegalCollapse => "no_legal_collapse",
+            Self::EmptyInput => "empty_input",
+        }
+    }
+}
+
+impl std::fmt::Display for StopReason {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.as_str())
+    }
+}
+
+/// Watches a run: progress for a progress bar, every collapse for a recorder.
+pub trait Observer {
+    /// Called once before the first collapse.
+    fn started(&mut self, _triangles: usize, _target: usize) {}
+    /// Called after every performed collapse.
+    fn collapsed(&mut self, _record: &CollapseRecord) {}
+    /// Called every few thousand collapses with the current triangle count.
+    fn progress(&mut self, _triangles: usize) {}
+}
+
+/// An observer that does nothing.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct NoObserver;
+
+impl Observer for NoObserver {}
+
+/// Records every collapse (e.g. for progressive meshes).
+#[derive(Debug, Clone, Default)]
+pub struct CollapseRecorder {
+    /// The collapses, in order.
+    pub records: Vec<CollapseRecord>,
+}
+
+impl Observer for CollapseRecorder {
+    fn collapsed(&mut self, record: &CollapseRecord) {
+        self.records.push(*record);
+    }
+}
+
+/// Counts of rejected candidates, by reason.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize)]
+pub struct Rejections {
+    /// Kinds (locked/complex vertex would move, dead points).
+    pub kind: u64,
+    /// Non-manifold edge.
+    pub non_manifold_edge: u64,
+    /// Link condition.
+    pub link: u64,
+    /// Duplicate triangle.
+    pub duplicate: u64,
+    /// Seam wedges inconsistent.
+    pub seam: u64,
+    /// Fold-over.
+    pub fold_over: u64,
+    /// Zero-area triangle.
+    pub degenerate: u64,
+    /// Non-edge pair touching a common neighbour.
+    pub pair: u64,
+    /// Vetoed by a filter.
+    pub filter: u64,
+    /// Error above the maximum.
+    pub max_error: u64,
+}
+
+impl Rejections {
+    /// Total of all counts.
+    #[must_use]
+    pub fn total(&self) -> u64 {
+        self.kind
+            + self.non_manifold_edge
+            + self.link
+            + self.duplicate
+            + self.seam
+            + self.fold_over
+            + self.degenerate
+            + self.pair
+            + self.filter
+            + self.max_error
+    }
+}
+
+/// What a run did and why it stopped.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Outcome {
+    /// Why it stopped.
+    pub stop_reason: StopReason,
+    /// A sentence explaining the stop.
+    pub stop_detail: String,
+    /// Collapses performed (edge collapses and non-edge contractions).
+    pub collapses: usize,
+    /// Non-edge pair contractions among them.
+    pub non_edge_contractions: usize,
+    /// Largest error (distance, mesh units) of a performed collapse.
+    pub max_error: f64,
+    /// Rejected candidates by reason.
+    pub rejections: Rejections,
+    /// Full re-scans of all pairs done after the queue ran dry.
+    pub rescans: usize,
+    /// Whether soft filters were switched off to reach the target.
+    pub soft_filters_relaxed: bool,
+}

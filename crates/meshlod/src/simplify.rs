@@ -1,0 +1,598 @@
+//! Mesh simplification, the public entry point: [`simplify`] with
+//! [`SimplifyOptions`], returning the simplified [`Mesh`] and a [`Report`].
+//!
+//! The pipeline:
+//! 1. **validate** the mesh ([`Mesh::validate`]: indices, NaN/inf, stream lengths);
+//! 2. **repair**: weld positions exactly, drop triangles with a repeated point or
+//!    exactly zero area and extra copies of a triangle over the same three points
+//!    (both counted in the report);
+//! 3. **decimate** with the edge-collapse driver ([`crate::decimate::edge_collapse`]):
+//!    the cost model of [`SimplifyOptions::method`] (quadric error metric,
+//!    [`crate::cost::Qem`]), the always-on collapse operator, and the filters the
+//!    options ask for;
+//! 4. **output**: the surviving triangles over a compacted vertex buffer (first-use
+//!    order), attributes interpolated at moved vertices, groups kept.
+//!
+//! # Errors as distances
+//! The reported [`Report::error`] and the [`SimplifyOptions::max_error`] bound are
+//! *distances*: for a collapse, `sqrt(Δ / W)` where `Δ` is the quadric error of the
+//! new vertex and `W` the total area weight accumulated in its quadric — the
+//! area-weighted RMS distance from the new vertex to the original planes it stands
+//! for (see [`crate::quadric`]). The report gives the largest such value over all
+//! collapses performed, both in mesh units and as a fraction of the input's
+//! bounding-box diagonal. It is an estimate from the quadrics, not a Hausdorff
+//! distance (measure that with the metrics module).
+//!
+//! # Example
+//! ```
+//! use meshlod::mesh::generate;
+//! use meshlod::simplify::{simplify, SimplifyOptions, StopReason};
+//!
+//! let sphere = generate::icosphere(3); // 1280 triangles
+//! let options = SimplifyOptions::default().with_ratio(0.1);
+//! let (lod, report) = simplify(&sphere, &options).expect("a valid mesh");
+//! assert_eq!(report.stop_reason, StopReason::TargetReached);
+//! assert_eq!(lod.triangles.len(), 128);
+//! assert!(report.error < 0.05); // well under 5% of the diagonal
+//! ```
+
+use crate::collapse::{BuildOptions, OperatorLimits, Surface};
+use crate::cost::{Placement, Qem, QemOptions};
+use crate::decimate::edge_collapse::{self, EdgeCollapseOptions};
+use crate::decimate::{NoObserver, Observer, Rejections, StopRule};
+use crate::filter::{AspectRatio, Filter, LockBoundary, NormalDeviation};
+use crate::mesh::{Mesh, MeshError};
+use serde::Serialize;
+use std::time::Instant;
+use thiserror::Error;
+
+pub use crate::decimate::StopReason;
+
+/// The simplification method.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Method {
+    /// Quadric error metric edge collapse (Garland & Heckbert 1997).
+    #[default]
+    Qem,
+}
+
+impl Method {
+    /// The name used on the command line and in reports.
+    #[must_use]
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::Qem => "qem",
+        }
+    }
+}
+
+/// A length, either in mesh units or as a fraction of the bounding-box diagonal.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Distance {
+    /// A fraction of the input's bounding-box diagonal (`0.01` = 1%).
+    Relative(f64),
+    /// In the mesh's units.
+    Absolute(f64),
+}
+
+impl Distance {
+    /// The length in mesh units for a mesh with bounding-box diagonal `diagonal`.
+    #[must_use]
+    pub fn resolve(self, diagonal: f64) -> f64 {
+        match self {
+            Self::Relative(f) => f * diagonal,
+            Self::Absolute(d) => d,
+        }
+    }
+
+    fn value(self) -> f64 {
+        match self {
+            Self::Relative(v) | Self::Absolute(v) => v,
+        }
+    }
+}
+
+/// Options of [`simplify`]. Build with [`SimplifyOptions::default`] and the `with_*`
+/// setters; every field documents its default.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SimplifyOptions {
+    /// The method. Default [`Method::Qem`].
+    pub method: Method,
+    /// Target as a fraction of the input triangle count (`0.1` keeps 10%). Default
+    /// `None`. With neither `ratio` nor `target_triangles` the target is 50% of the
+    /// input, or no count at all when `max_error` is given.
+    pub ratio: Option<f64>,
+    /// Target triangle count. Default `None`. When both targets are given the
+    /// larger count wins (whichever is reached first).
+    pub target_triangles: Option<usize>,
+    /// Stop before any collapse whose error exceeds this distance. Default `None`.
+    pub max_error: Option<Distance>,
+    /// Keep every boundary point where it is (never moved, never removed). Default
+    /// `false`.
+    pub lock_boundary: bool,
+    /// Per input vertex: `true` locks its position (never moved or removed).
+    /// Default `None`. Must have one entry per vertex.
+    pub locked_vertices: Option<Vec<bool>>,
+    /// Keep the topology: only edges are collapsed. When `false` and
+    /// [`Self::pair_threshold`] is set, close non-edge pairs may be contracted too
+    /// (joining separate parts; this can change the genus and creates non-manifold
+    /// vertices where parts join). Default `true`.
+    pub preserve_topology: bool,
+    /// Weight of the boundary constraint planes (plane through a border edge,
+    /// perpendicular to its triangle), relative to area weights: a border edge of
+    /// length `l` adds a plane of weight `w·l²` (an equilateral triangle on it has
+    /// area `0.43·l²`). Higher keeps open borders more faithfully. Default `10.0`.
+    pub boundary_weight: f64,
+    /// Maximum angle in degrees a triangle's normal may turn in one collapse.
+    /// Default `None` (only fold-overs, turns of 90° or more, are refused).
+    pub max_normal_deviation: Option<f64>,
+    /// Threshold `t` for pair contraction: pairs of points closer than `t` that share
+    /// no edge become candidates (Garland & Heckbert's "virtual edges"). Only used
+    /// when `preserve_topology` is `false`. Default `None`.
+    pub pair_threshold: Option<Distance>,
+    /// Minimum quality `4√3·area / Σ edge²` (1 = equilateral) of a triangle created
+    /// by a collapse, unless it was already worse; a soft guard against slivers,
+    /// relaxed if the target cannot be reached otherwise. `0` disables. Default `0.1`.
+    pub min_triangle_quality: f64,
+    /// Where a merged vertex goes. Default [`Placement::Optimal`].
+    pub placement: Placement,
+}
+
+impl Default for SimplifyOptions {
+    fn default() -> Self {
+        Self {
+            method: Method::Qem,
+            ratio: None,
+            target_triangles: None,
+            max_error: None,
+            lock_boundary: false,
+            locked_vertices: None,
+            preserve_topology: true,
+            boundary_weight: 10.0,
+            max_normal_deviation: None,
+            pair_threshold: None,
+            min_triangle_quality: 0.1,
+            placement: Placement::Optimal,
+        }
+    }
+}
+
+impl SimplifyOptions {
+    /// Sets [`Self::method`].
+    #[must_use]
+    pub fn with_method(mut self, method: Method) -> Self {
+        self.method = method;
+        self
+    }
+    /// Sets [`Self::ratio`].
+    #[must_use]
+    pub fn with_ratio(mut self, ratio: f64) -> Self {
+        self.ratio = Some(ratio);
+        self
+    }
+    /// Sets [`Self::target_triangles`].
+    #[must_use]
+    pub fn with_target_triangles(mut self, n: usize) -> Self {
+        self.target_triangles = Some(n);
+        self
+    }
+    /// Sets [`Self::max_error`].
+    #[must_use]
+    pub fn with_max_error(mut self, e: Distance) -> Self {
+        self.max_error = Some(e);
+        self
+    }
+    /// Sets [`Self::lock_boundary`].
+    #[must_use]
+    pub fn with_lock_boundary(mut self, lock: bool) -> Self {
+        self.lock_boundary = lock;
+        self
+    }
+    /// Sets [`Self::locked_vertices`].
+    #[must_use]
+    pub fn with_locked_vertices(mut self, mask: Vec<bool>) -> Self {
+        self.locked_vertices = Some(mask);
+        self
+    }
+    /// Sets [`Self::preserve_topology`].
+    #[must_use]
+    pub fn with_preserve_topology(mut self, preserve: bool) -> Self {
+        self.preserve_topology = preserve;
+        self
+    }
+    /// Sets [`Self::boundary_weight`].
+    #[must_use]
+    pub fn with_boundary_weight(mut self, w: f64) -> Self {
+        self.boundary_weight = w;
+        self
+    }
+    /// Sets [`Self::max_normal_deviation`] (degrees).
+    #[must_use]
+    pub fn with_max_normal_deviation(mut self, degrees: f64) -> Self {
+        self.max_normal_deviation = Some(degrees);
+        self
+    }
+    /// Sets [`Self::pair_threshold`].
+    #[must_use]
+    pub fn with_pair_threshold(mut self, t: Distance) -> Self {
+        self.pair_threshold = Some(t);
+        self
+    }
+    /// Sets [`Self::min_triangle_quality`].
+    #[must_use]
+    pub fn with_min_triangle_quality(mut self, q: f64) -> Self {
+        self.min_triangle_quality = q;
+        self
+    }
+    /// Sets [`Self::placement`].
+    #[must_use]
+    pub fn with_placement(mut self, p: Placement) -> Self {
+        self.placement = p;
+        self
+    }
+
+    /// The target triangle count for an input of `triangles` triangles.
+    #[must_use]
+    pub fn target_for(&self, triangles: usize) -> usize {
+        let from_ratio = self
+            .ratio
+            .map(|r| ((triangles as f64) * r.clamp(0.0, 1.0)).round() as usize);
+        match (from_ratio, self.target_triangles) {
+            (Some(a), Some(b)) => a.max(b),
+            (Some(a), None) => a,
+            (None, Some(b)) => b,
+            (None, None) if self.max_error.is_some() => 0,
+            (None, None) => (triangles as f64 * 0.5).round() as usize,
+        }
+    }
+
+    fn check(&self, vertices: usize) -> Result<(), SimplifyError> {
+        let bad =
+            |name: &'static str, message: String| Err(SimplifyError::Option { name, message });
+        if let Some(r) = self.ratio {
+            if !(0.0..=1.0).contains(&r) {
+                return bad("ratio", format!("{r} is not in [0, 1]"));
+            }
+        }
+        if let Some(e) = self.max_error {
+            if !(e.value() >= 0.0 && e.value().is_finite()) {
+                return bad(
+                    "max_error",
+                    format!("{} is not a finite non-negative distance", e.value()),
+                );
+            }
+        }
+        if let Some(t) = self.pair_threshold {
+            if !(t.value() >= 0.0 && t.value().is_finite()) {
+                return bad(
+                    "pair_threshold",
+                    format!("{} is not a finite non-negative distance", t.value()),
+                );
+            }
+        }
+        if !(self.boundary_weight >= 0.0 && self.boundary_weight.is_finite()) {
+            return bad(
+                "boundary_weight",
+                format!("{} is not finite and non-negative", self.boundary_weight),
+            );
+        }
+        if let Some(a) = self.max_normal_deviation {
+            if !(0.0..=180.0).contains(&a) {
+                return bad(
+                    "max_normal_deviation",
+                    format!("{a} is not in [0, 180] degrees"),
+                );
+            }
+        }
+        if !(0.0..=1.0).contains(&self.min_triangle_quality) {
+            return bad(
+                "min_triangle_quality",
+                format!("{} is not in [0, 1]", self.min_triangle_quality),
+            );
+        }
+        if let Some(m) = &self.locked_vertices {
+            if m.len() != vertices {
+                return Err(SimplifyError::LockMask {
+                    len: m.len(),
+                    vertices,
+                });
+            }
+        }
+        Ok(())
+    }
+}
+
+/// Errors of [`simplify`].
+#[derive(Debug, Clone, PartialEq, Error)]
+pub enum SimplifyError {
+    /// The input mesh is invalid (index out of range, NaN/inf coordinate, …).
+    #[error("invalid mesh: {0}")]
+    Invalid(#[from] MeshError),
+    /// An option is out of range.
+    #[error("option {name}: {message}")]
+    Option {
+        /// The option's field name.
+        name: &'static str,
+        /// What is wrong with it.
+        message: String,
+    },
+    /// The lock mask does not have one entry per vertex.
+    #[error("lock mask has {len} entries for {vertices} vertices")]
+    LockMask {
+        /// Its length.
+        len: usize,
+        /// The vertex count.
+        vertices: usize,
+    },
+}
+
+/// What [`simplify`] did.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Report {
+    /// The method used (`"qem"`).
+    pub method: &'static str,
+    /// Input triangles (before repair).
+    pub triangles_in: usize,
+    /// Input vertices.
+    pub vertices_in: usize,
+    /// The target triangle count that was aimed for.
+    pub target_triangles: usize,
+    /// Output triangles.
+    pub triangles_out: usize,
+    /// Output vertices (after compaction).
+    pub vertices_out: usize,
+    /// Largest collapse error, as a fraction of the bounding-box diagonal (see the
+    /// module docs for what the distance is).
+    pub error: f64,
+    /// The same error in mesh units.
+    pub error_absolute: f64,
+    /// The input's bounding-box diagonal (mesh units).
+    pub bbox_diagonal: f64,
+    /// Why it stopped.
+    pub stop_reason: StopReason,
+    /// A sentence explaining the stop.
+    pub stop_detail: String,
+    /// Wall-clock seconds for the whole call (repair, simplification, output).
+    pub seconds: f64,
+    /// Collapses performed.
+    pub collapses: usize,
+    /// Non-edge pair contractions among them.
+    pub non_edge_contractions: usize,
+    /// Degenerate input triangles removed by the up-front repair.
+    pub degenerate_removed: usize,
+    /// Duplicate input triangles removed by the up-front repair.
+    pub duplicate_removed: usize,
+    /// Rejected candidates by reason.
+    pub rejections: Rejections,
+    /// Full re-scans after the queue ran dry.
+    pub rescans: usize,
+    /// Whether the soft triangle-quality guard was switched off to reach the target.
+    pub soft_filters_relaxed: bool,
+}
+
+/// The result of [`simplify_observed`]: the mesh, the report, and for every output
+/// vertex the input vertex it descends from.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Simplified {
+    /// The simplified mesh.
+    pub mesh: Mesh,
+    /// What happened.
+    pub report: Report,
+    /// Output vertex `i` descends from input vertex `vertex_source[i]` (its
+    /// attributes were interpolated if its position moved).
+    pub vertex_source: Vec<u32>,
+}
+
+/// Simplifies `mesh` as `options` say.
+///
+/// # Errors
+/// [`SimplifyError::Invalid`] when the mesh does not validate, [`SimplifyError::Option`]
+/// or [`SimplifyError::LockMask`] for bad options. Empty meshes and non-manifold
+/// input are not errors.
+pub fn simplify(mesh: &Mesh, options: &SimplifyOptions) -> Result<(Mesh, Report), SimplifyError> {
+    let s = simplify_observed(mesh, options, &mut NoObserver)?;
+    Ok((s.mesh, s.report))
+}
+
+/// [`simplify`] with an [`Observer`] (progress, collapse recording) and the vertex
+/// provenance.
+///
+/// # Errors
+/// As [`simplify`].
+pub fn simplify_observed(
+    mesh: &Mesh,
+    options: &SimplifyOptions,
+    observer: &mut dyn Observer,
+) -> Result<Simplified, SimplifyError> {
+    let start = Instant::now();
+    mesh.validate()?;
+    options.check(mesh.positions.len())?;
+    let (mut surface, repair) = Surface::build(
+        mesh,
+        &BuildOptions {
+            locked: options.locked_vertices.as_deref(),
+        },
+    );
+    let diag = surface.diagonal();
+    let target = options.target_for(mesh.triangles.len());
+    let allow_non_edge = !options.preserve_topology && options.pair_threshold.is_some();
+    let extra_pairs = match options.pair_threshold {
+        Some(t) if allow_non_edge => close_pairs(&mut surface, t.resolve(diag)),
+        _ => Vec::new(),
+    };
+    let driver_options = EdgeCollapseOptions {
+        limits: OperatorLimits {
+            allow_non_edge,
+            ..OperatorLimits::default()
+        },
+        stop: StopRule {
+            target_triangles: target,
+            max_error: options.max_error.map(|e| e.resolve(diag)),
+        },
+        extra_pairs,
+    };
+    let normal = options.max_normal_deviation.map(NormalDeviation::new);
+    let aspect = (options.min_triangle_quality > 0.0).then_some(AspectRatio {
+        min_quality: options.min_triangle_quality,
+    });
+    let lock = options.lock_boundary.then_some(LockBoundary);
+    let mut filters: Vec<&dyn Filter> = Vec::new();
+    if let Some(f) = &lock {
+        filters.push(f);
+    }
+    if let Some(f) = &normal {
+        filters.push(f);
+    }
+    if let Some(f) = &aspect {
+        filters.push(f);
+    }
+    let outcome = match options.method {
+        Method::Qem => {
+            let qo = QemOptions {
+                boundary_weight: options.boundary_weight,
+                placement: options.placement,
+                ..QemOptions::default()
+            };
+            let mut qem = Qem::new(qo);
+            edge_collapse::run(&mut surface, &mut qem, &filters, &driver_options, observer)
+        }
+    };
+    let (out, vertex_source) = build_output(mesh, &mut surface);
+    let report = Report {
+        method: options.method.name(),
+        triangles_in: mesh.triangles.len(),
+        vertices_in: mesh.positions.len(),
+        target_triangles: target,
+        triangles_out: out.triangles.len(),
+        vertices_out: out.positions.len(),
+        error: if diag > 0.0 {
+            outcome.max_error / diag
+        } else {
+            0.0
+        },
+        error_absolute: outcome.max_error,
+        bbox_diagonal: diag,
+        stop_reason: outcome.stop_reason,
+        stop_detail: outcome.stop_detail,
+        seconds: start.elapsed().as_secs_f64(),
+        collapses: outcome.collapses,
+        non_edge_contractions: outcome.non_edge_contractions,
+        degenerate_removed: repair.degenerate_triangles,
+        duplicate_removed: repair.duplicate_triangles,
+        rejections: outcome.rejections,
+        rescans: outcome.rescans,
+        soft_filters_relaxed: outcome.soft_filters_relaxed,
+    };
+    Ok(Simplified {
+        mesh: out,
+        report,
+        vertex_source,
+    })
+}
+
+/// The surviving triangles over a compacted vertex buffer in first-use order.
+fn build_output(mesh: &Mesh, surface: &mut Surface) -> (Mesh, Vec<u32>) {
+    let (wedges, points, groups) = surface.output_triangles();
+    let mut remap = vec![u32::MAX; mesh.positions.len()];
+    let mut source = Vec::new();
+    let mut positions = Vec::new();
+    let mut triangles = Vec::with_capacity(wedges.len());
+    for (w, p) in wedges.iter().zip(points.iter()) {
+        let mut t = [0u32; 3];
+        for k in 0..3 {
+            let r = &mut remap[w[k] as usize];
+            if *r == u32::MAX {
+                *r = source.len() as u32;
+                source.push(w[k]);
+                positions.push(surface.position(p[k]));
+            }
+            t[k] = *r;
+        }
+        triangles.push(t);
+    }
+    let attributes = surface.take_attributes().gather(&source);
+    (
+        Mesh {
+            positions,
+            triangles,
+            attributes,
+            groups,
+            group_names: mesh.group_names.clone(),
+        },
+        source,
+    )
+}
+
+/// Pairs of live points closer than `t` that share no edge, found with a uniform
+/// grid of cell size `t` (points sorted by cell; each point looks at the 27 cells
+/// around it). At most the 8 nearest partners per point are kept, so a dense
+/// cluster cannot make this quadratic.
+fn close_pairs(surface: &mut Surface, t: f64) -> Vec<[u32; 2]> {
+    if t.is_nan() || t <= 0.0 {
+        return Vec::new();
+    }
+    let n = surface.point_count() as u32;
+    let cell = |p: [f32; 3]| -> [i64; 3] {
+        p.map(|x| (f64::from(x) / t).floor().clamp(-1e15, 1e15) as i64)
+    };
+    let mut order: Vec<([i64; 3], u32)> = (0..n)
+        .filter(|&p| surface.is_alive(p))
+        .map(|p| (cell(surface.position(p)), p))
+        .collect();
+    order.sort_unstable();
+    let mut pairs = Vec::new();
+    let mut near: Vec<(f64, u32)> = Vec::new();
+    let mut nb = Vec::new();
+    let t2 = t * t;
+    for &(c, p) in &order {
+        near.clear();
+        let pp = surface.position(p);
+        for dx in -1..=1 {
+            for dy in -1..=1 {
+                for dz in -1..=1 {
+                    let key = [c[0] + dx, c[1] + dy, c[2] + dz];
+                    let lo = order.partition_point(|e| e.0 < key);
+                    for &(k, q) in &order[lo..] {
+                        if k != key {
+                            break;
+                        }
+                        if q <= p {
+                            continue;
+                        }
+                        let qq = surface.position(q);
+                        let d2: f64 = (0..3)
+                            .map(|i| {
+                                let d = f64::from(pp[i]) - f64::from(qq[i]);
+                                d * d
+                            })
+                            .sum();
+                        if d2 < t2 {
+                            near.push((d2, q));
+                        }
+                    }
+                }
+            }
+        }
+        if near.is_empty() {
+            continue;
+        }
+        near.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+        surface.neighbours(p, &mut nb);
+        let mut kept = 0;
+        for &(_, q) in near.iter() {
+            if kept == 8 {
+                break;
+            }
+            if !nb.contains(&q) {
+                pairs.push([p, q]);
+                kept += 1;
+            }
+        }
+    }
+    pairs
+}
+
+#[cfg(test)]
+mod tests;

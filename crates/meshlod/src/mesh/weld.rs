@@ -20,40 +20,15 @@ impl Weld {
     #[must_use]
     pub fn exact(positions: &[[f32; 3]]) -> Self {
         // +0.0 for -0.0 so the two zeros weld.
-        let key = |p: &[f32; 3]| {
-            [
+        Self::by_key(positions.len(), |i| {
+            let p = positions[i];
+            let k = [
                 (p[0] + 0.0).to_bits(),
                 (p[1] + 0.0).to_bits(),
                 (p[2] + 0.0).to_bits(),
-            ]
-        };
-        let cap = (positions.len() * 2).next_power_of_two().max(16);
-        let mask = cap - 1;
-        let mut slots = vec![u32::MAX; cap];
-        let mut point_of = Vec::with_capacity(positions.len());
-        let mut representative = Vec::new();
-        for (i, p) in positions.iter().enumerate() {
-            let k = key(p);
-            let mut h = hash3(k) as usize & mask;
-            let id = loop {
-                let s = slots[h];
-                if s == u32::MAX {
-                    let id = representative.len() as u32;
-                    slots[h] = i as u32;
-                    representative.push(i as u32);
-                    break id;
-                }
-                if key(&positions[s as usize]) == k {
-                    break point_of[s as usize];
-                }
-                h = (h + 1) & mask;
-            };
-            point_of.push(id);
-        }
-        Self {
-            point_of,
-            representative,
-        }
+            ];
+            (k, hash3(k))
+        })
     }
 
     /// Welds f64 positions by exact equality (e.g. world positions of scene instances
@@ -61,28 +36,28 @@ impl Weld {
     /// apart, as the shared `MANIFEST.md` counts them).
     #[must_use]
     pub fn exact_f64(positions: &[[f64; 3]]) -> Self {
-        let key = |p: &[f64; 3]| {
-            [
+        Self::by_key(positions.len(), |i| {
+            let p = positions[i];
+            let k = [
                 (p[0] + 0.0).to_bits(),
                 (p[1] + 0.0).to_bits(),
                 (p[2] + 0.0).to_bits(),
-            ]
-        };
-        let fold = |k: [u64; 3]| {
-            hash3([
-                (k[0] ^ (k[0] >> 32)) as u32,
-                (k[1] ^ (k[1] >> 32)) as u32,
-                (k[2] ^ (k[2] >> 32)) as u32,
-            ])
-        };
-        let cap = (positions.len() * 2).next_power_of_two().max(16);
+            ];
+            let h = hash3(k.map(|w| (w ^ (w >> 32)) as u32));
+            (k, h)
+        })
+    }
+
+    /// Welds `n` items whose `key(i)` gives an equality key and its hash.
+    fn by_key<K: PartialEq>(n: usize, key: impl Fn(usize) -> (K, u32)) -> Self {
+        let cap = (n * 2).next_power_of_two().max(16);
         let mask = cap - 1;
         let mut slots = vec![u32::MAX; cap];
-        let mut point_of = Vec::with_capacity(positions.len());
+        let mut point_of = Vec::with_capacity(n);
         let mut representative = Vec::new();
-        for (i, p) in positions.iter().enumerate() {
-            let k = key(p);
-            let mut h = fold(k) as usize & mask;
+        for i in 0..n {
+            let (k, hash) = key(i);
+            let mut h = hash as usize & mask;
             let id = loop {
                 let s = slots[h];
                 if s == u32::MAX {
@@ -91,7 +66,7 @@ impl Weld {
                     representative.push(i as u32);
                     break id;
                 }
-                if key(&positions[s as usize]) == k {
+                if key(s as usize).0 == k {
                     break point_of[s as usize];
                 }
                 h = (h + 1) & mask;

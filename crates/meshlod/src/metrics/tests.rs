@@ -1,24 +1,11 @@
 //! Analytic cases for the Hausdorff instrument.
 
 use super::*;
+use crate::mesh::generate;
 
 /// A `k × k` grid of squares in the plane `z`, spanning `[0, 1]²`, two triangles each.
 fn grid(k: u32, z: f32) -> Mesh {
-    let mut positions = Vec::new();
-    for j in 0..=k {
-        for i in 0..=k {
-            positions.push([i as f32 / k as f32, j as f32 / k as f32, z]);
-        }
-    }
-    let mut triangles = Vec::new();
-    let id = |i: u32, j: u32| j * (k + 1) + i;
-    for j in 0..k {
-        for i in 0..k {
-            triangles.push([id(i, j), id(i + 1, j), id(i + 1, j + 1)]);
-            triangles.push([id(i, j), id(i + 1, j + 1), id(i, j + 1)]);
-        }
-    }
-    Mesh::from_triangles(positions, triangles)
+    generate::grid(k, k, |_, _| f64::from(z))
 }
 
 /// Axis-aligned cube `[-s, s]³`, 12 triangles, outward.
@@ -48,58 +35,9 @@ fn cube(s: f32) -> Mesh {
     Mesh::from_triangles(p, t)
 }
 
-/// Icosahedron with unit circumradius, subdivided `levels` times and projected to the
-/// unit sphere.
+/// Icosahedron with unit circumradius, subdivided `levels` times onto the unit sphere.
 fn icosphere(levels: u32) -> Mesh {
-    let g = (1.0 + 5f64.sqrt()) / 2.0;
-    let raw = [
-        [-1.0, g, 0.0],
-        [1.0, g, 0.0],
-        [-1.0, -g, 0.0],
-        [1.0, -g, 0.0],
-        [0.0, -1.0, g],
-        [0.0, 1.0, g],
-        [0.0, -1.0, -g],
-        [0.0, 1.0, -g],
-        [g, 0.0, -1.0],
-        [g, 0.0, 1.0],
-        [-g, 0.0, -1.0],
-        [-g, 0.0, 1.0],
-    ];
-    let norm = |v: [f64; 3]| {
-        let l = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
-        [(v[0] / l) as f32, (v[1] / l) as f32, (v[2] / l) as f32]
-    };
-    let tris = vec![
-        [0, 11, 5],
-        [0, 5, 1],
-        [0, 1, 7],
-        [0, 7, 10],
-        [0, 10, 11],
-        [1, 5, 9],
-        [5, 11, 4],
-        [11, 10, 2],
-        [10, 7, 6],
-        [7, 1, 8],
-        [3, 9, 4],
-        [3, 4, 2],
-        [3, 2, 6],
-        [3, 6, 8],
-        [3, 8, 9],
-        [4, 9, 5],
-        [2, 4, 11],
-        [6, 2, 10],
-        [8, 6, 7],
-        [9, 8, 1],
-    ];
-    let mut m = Mesh::from_triangles(raw.iter().map(|&v| norm(v)).collect(), tris);
-    for _ in 0..levels {
-        m = m.subdivide_midpoint();
-        for p in &mut m.positions {
-            *p = norm([f64::from(p[0]), f64::from(p[1]), f64::from(p[2])]);
-        }
-    }
-    m
+    generate::icosphere(levels)
 }
 
 fn opts(n: usize) -> SamplingOptions {

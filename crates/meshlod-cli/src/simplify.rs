@@ -16,6 +16,7 @@ use indicatif::{ProgressBar, ProgressStyle};
 use meshlod::collapse::CollapseRecord;
 use meshlod::decimate::Observer;
 use meshlod::io::{read_scene, write_scene, Format, Scene, WriteOptions};
+use meshlod::metrics::{self, Distances, SamplingOptions};
 use meshlod::simplify::{simplify_observed, Distance, Method, SimplifyOptions, StopReason};
 use serde::Serialize;
 use std::io::IsTerminal;
@@ -70,6 +71,12 @@ pub struct SimplifyArgs {
     /// Print the report as one JSON object.
     #[arg(long)]
     pub json: bool,
+    /// Also measure the result against the input: symmetric Hausdorff, mean and RMS
+    /// distance (Metro sampling, as `meshlod measure` with default samples), added to
+    /// the report as `hausdorff` (relative to the bbox diagonal, or absolute with
+    /// --absolute) and `measure` (both directions, absolute units).
+    #[arg(long)]
+    pub measure: bool,
 }
 
 /// `--method` values.
@@ -106,6 +113,13 @@ struct CliReport {
     non_edge_contractions: usize,
     degenerate_removed: usize,
     duplicate_removed: usize,
+    /// Symmetric Hausdorff distance of output vs input (with --measure), in the units
+    /// of `error`.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    hausdorff: Option<f64>,
+    /// Full measurement (with --measure), absolute units.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    measure: Option<Distances>,
 }
 
 /// Progress bar on stderr, advanced by removed triangles.
@@ -232,6 +246,13 @@ pub fn run(args: &SimplifyArgs) -> Result<()> {
         &WriteOptions::default().with_ascii(args.ascii),
     )?;
     let write_seconds = t1.elapsed().as_secs_f64();
+    let measure = args.measure.then(|| {
+        metrics::hausdorff(
+            &scene.flatten(),
+            &out_scene.flatten(),
+            &SamplingOptions::default(),
+        )
+    });
 
     let rel = if agg.diag > 0.0 {
         agg.error_absolute / agg.diag
@@ -270,6 +291,14 @@ pub fn run(args: &SimplifyArgs) -> Result<()> {
         non_edge_contractions: agg.non_edge,
         degenerate_removed: agg.degenerate,
         duplicate_removed: agg.duplicate,
+        hausdorff: measure.map(|d| {
+            if args.absolute || d.bbox_diagonal <= 0.0 {
+                d.hausdorff
+            } else {
+                d.hausdorff / d.bbox_diagonal
+            }
+        }),
+        measure,
     };
     if args.json {
         println!("{}", serde_json::to_string(&report)?);
@@ -417,6 +446,16 @@ fn print_text(r: &CliReport) {
         "  collapses    {} ({} non-edge); repaired {} degenerate, {} duplicate triangles",
         r.collapses, r.non_edge_contractions, r.degenerate_removed, r.duplicate_removed
     );
+    if let Some(d) = &r.measure {
+        let diag = d.bbox_diagonal.max(f64::MIN_POSITIVE);
+        println!(
+            "  measured     Hausdorff {:.4}%, mean {:.5}%, rms {:.5}% of the diagonal ({} samples)",
+            100.0 * d.hausdorff / diag,
+            100.0 * d.mean / diag,
+            100.0 * d.rms / diag,
+            d.a_to_b.samples + d.b_to_a.samples
+        );
+    }
     println!(
         "  time         {:.3} s simplify, {:.3} s read, {:.3} s write",
         r.seconds, r.read_seconds, r.write_seconds

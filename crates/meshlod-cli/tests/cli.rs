@@ -145,3 +145,36 @@ fn measure_a_mesh_against_itself_and_write_a_heatmap() {
     assert_eq!(back.positions.len(), 4500);
     assert!(back.attributes.colors.is_some());
 }
+
+#[test]
+fn simplify_measure_adds_the_hausdorff_distance() {
+    let cow = data_dir().join("cow.obj");
+    let dir = tempfile::tempdir().unwrap();
+    let out_path = dir.path().join("cow10.ply");
+    let out = meshlod(&[
+        "simplify",
+        cow.to_str().unwrap(),
+        "-o",
+        out_path.to_str().unwrap(),
+        "--ratio",
+        "0.1",
+        "--measure",
+        "--json",
+    ]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let h = v["hausdorff"].as_f64().expect("hausdorff with --measure");
+    // A 10% cow is visibly coarser (well above float noise) but nowhere near a
+    // tenth of the diagonal off.
+    assert!(h > 1e-4 && h < 0.05, "hausdorff {h}");
+    let m = &v["measure"];
+    // Default sampling: at least 1,000,000 on edges and 1,000,000 on faces each way.
+    assert!(m["a_to_b"]["samples"].as_u64().unwrap() >= 2_000_000);
+    assert!(
+        (m["hausdorff"].as_f64().unwrap() / m["bbox_diagonal"].as_f64().unwrap() - h).abs() < 1e-12
+    );
+}

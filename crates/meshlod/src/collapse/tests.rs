@@ -43,15 +43,7 @@ fn limits() -> OperatorLimits {
 /// three points (the case the link condition alone misses).
 #[test]
 fn tetrahedron_collapse_is_duplicate() {
-    let m = Mesh::from_triangles(
-        vec![
-            [0.0, 0.0, 0.0],
-            [1.0, 0.0, 0.0],
-            [0.0, 1.0, 0.0],
-            [0.0, 0.0, 1.0],
-        ],
-        vec![[0, 2, 1], [0, 1, 3], [1, 2, 3], [0, 3, 2]],
-    );
+    let m = crate::mesh::generate::tetrahedron();
     let mut s = surface(&m);
     assert!(s.kind(0) == VertexKind::Manifold);
     let mut pv = Preview::default();

@@ -6,6 +6,22 @@
 
 use super::Mesh;
 
+/// The corner tetrahedron `(0,0,0), (1,0,0), (0,1,0), (0,0,1)`: 4 triangles, closed,
+/// outward-facing, genus 0 — the smallest closed mesh, on which every edge collapse
+/// would create a duplicate triangle.
+#[must_use]
+pub fn tetrahedron() -> Mesh {
+    Mesh::from_triangles(
+        vec![
+            [0.0, 0.0, 0.0],
+            [1.0, 0.0, 0.0],
+            [0.0, 1.0, 0.0],
+            [0.0, 0.0, 1.0],
+        ],
+        vec![[0, 2, 1], [0, 1, 3], [1, 2, 3], [0, 3, 2]],
+    )
+}
+
 /// A unit icosphere: the icosahedron with every triangle split into four `level`
 /// times and the vertices pushed onto the sphere. `20 * 4^level` triangles; closed,
 /// genus 0.

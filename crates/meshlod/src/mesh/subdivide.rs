@@ -97,20 +97,12 @@ impl Mesh {
 
 #[cfg(test)]
 mod tests {
-    use crate::mesh::{Mesh, MeshStats};
+    use crate::mesh::MeshStats;
 
     #[test]
     fn subdivision_keeps_topology_and_quadruples_triangles() {
         // Tetrahedron: closed genus 0; after subdivision still closed genus 0.
-        let m = Mesh::from_triangles(
-            vec![
-                [0.0, 0.0, 0.0],
-                [1.0, 0.0, 0.0],
-                [0.0, 1.0, 0.0],
-                [0.0, 0.0, 1.0],
-            ],
-            vec![[0, 2, 1], [0, 1, 3], [1, 2, 3], [0, 3, 2]],
-        );
+        let m = crate::mesh::generate::tetrahedron();
         let s = m.subdivide_midpoint();
         assert_eq!(s.triangles.len(), 16);
         assert_eq!(s.positions.len(), 4 + 6);

@@ -572,15 +572,7 @@ proptest! {
 /// stops with "no legal collapse left" and says why.
 #[test]
 fn tetrahedron_stops_with_no_legal_collapse() {
-    let m = Mesh::from_triangles(
-        vec![
-            [0.0, 0.0, 0.0],
-            [1.0, 0.0, 0.0],
-            [0.0, 1.0, 0.0],
-            [0.0, 0.0, 1.0],
-        ],
-        vec![[0, 2, 1], [0, 1, 3], [1, 2, 3], [0, 3, 2]],
-    );
+    let m = crate::mesh::generate::tetrahedron();
     let (out, report) = simplify(&m, &SimplifyOptions::default().with_target_triangles(0)).unwrap();
     assert_eq!(out.triangles.len(), 4);
     assert_eq!(report.stop_reason, StopReason::NoLegalCollapse);

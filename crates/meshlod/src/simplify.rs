@@ -38,6 +38,9 @@
 
 use crate::collapse::{BuildOptions, OperatorLimits, Surface};
 use crate::cost::{Placement, Qem, QemOptions};
+use crate::decimate::cluster::{
+    cluster_file, cluster_mesh, ClusterError, ClusterOptions, ClusterStats, Clustered,
+};
 use crate::decimate::edge_collapse::{self, EdgeCollapseOptions};
 use crate::decimate::{NoObserver, Observer, Rejections, StopRule};
 use crate::filter::{AspectRatio, Filter, LockBoundary, NormalDeviation};
@@ -55,6 +58,10 @@ pub enum Method {
     /// Quadric error metric edge collapse (Garland & Heckbert 1997).
     #[default]
     Qem,
+    /// Vertex clustering on a uniform grid (Rossignac & Borrel 1993; quadric
+    /// representatives after Lindstrom 2000): O(n), may change the topology. See
+    /// [`crate::decimate::cluster`] and [`SimplifyOptions::cluster`].
+    Cluster,
 }
 
 impl Method {
@@ -63,6 +70,7 @@ impl Method {
     pub fn name(self) -> &'static str {
         match self {
             Self::Qem => "qem",
+            Self::Cluster => "cluster",
         }
     }
 }
@@ -138,6 +146,9 @@ pub struct SimplifyOptions {
     pub min_triangle_quality: f64,
     /// Where a merged vertex goes. Default [`Placement::Optimal`].
     pub placement: Placement,
+    /// Options of [`Method::Cluster`] (cell size, representative, weights). With a
+    /// cell size the targets are ignored. Default [`ClusterOptions::default`].
+    pub cluster: ClusterOptions,
 }
 
 impl Default for SimplifyOptions {
@@ -155,6 +166,7 @@ impl Default for SimplifyOptions {
             pair_threshold: None,
             min_triangle_quality: 0.1,
             placement: Placement::Optimal,
+            cluster: ClusterOptions::default(),
         }
     }
 }
@@ -230,6 +242,12 @@ impl SimplifyOptions {
     #[must_use]
     pub fn with_placement(mut self, p: Placement) -> Self {
         self.placement = p;
+        self
+    }
+    /// Sets [`Self::cluster`].
+    #[must_use]
+    pub fn with_cluster(mut self, c: ClusterOptions) -> Self {
+        self.cluster = c;
         self
     }
 
@@ -370,6 +388,10 @@ pub struct Report {
     pub rescans: usize,
     /// Whether the soft triangle-quality guard was switched off to reach the target.
     pub soft_filters_relaxed: bool,
+    /// What vertex clustering did ([`Method::Cluster`] only), including the
+    /// non-manifold edge and vertex counts of the result.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub cluster: Option<ClusterStats>,
 }
 
 /// The result of [`simplify_observed`]: the mesh, the report, and for every output
@@ -409,6 +431,16 @@ pub fn simplify_observed(
     let start = Instant::now();
     mesh.validate()?;
     options.check(mesh.positions.len())?;
+    if options.method == Method::Cluster {
+        let target = options.target_for(mesh.triangles.len());
+        let c = cluster_mesh(mesh, Some(target), &options.cluster).map_err(|e| {
+            SimplifyError::Option {
+                name: "cluster",
+                message: e.to_string(),
+            }
+        })?;
+        return Ok(cluster_result(c, options, target, start));
+    }
     let (mut surface, repair) = Surface::build(
         mesh,
         &BuildOptions {
@@ -449,6 +481,7 @@ pub fn simplify_observed(
         filters.push(f);
     }
     let outcome = match options.method {
+        Method::Cluster => unreachable!("handled above"),
         Method::Qem => {
             let qo = QemOptions {
                 boundary_weight: options.boundary_weight,
@@ -484,12 +517,123 @@ pub fn simplify_observed(
         rejections: outcome.rejections,
         rescans: outcome.rescans,
         soft_filters_relaxed: outcome.soft_filters_relaxed,
+        cluster: None,
     };
     Ok(Simplified {
         mesh: out,
         report,
         vertex_source,
     })
+}
+
+/// [`Method::Cluster`] on a file streamed twice instead of a mesh in memory
+/// ([`crate::decimate::cluster::cluster_file`]): memory proportional to the occupied
+/// cells (plus 12 bytes per vertex for PLY and OBJ), no attributes carried.
+/// `options.method` must be [`Method::Cluster`].
+///
+/// # Errors
+/// [`ClusterError`]: the file cannot be read or streamed (naming the file and place),
+/// or an option is out of range.
+pub fn simplify_stream(
+    path: impl AsRef<std::path::Path>,
+    options: &SimplifyOptions,
+) -> Result<Simplified, ClusterError> {
+    let start = Instant::now();
+    if options.method != Method::Cluster {
+        return Err(ClusterError::Option(format!(
+            "only the cluster method can stream, not {}",
+            options.method.name()
+        )));
+    }
+    options
+        .check(0)
+        .map_err(|e| ClusterError::Option(e.to_string()))?;
+    let mut target = 0;
+    let c = cluster_file(
+        path.as_ref(),
+        |n| {
+            target = options.target_for(n);
+            Some(target)
+        },
+        &options.cluster,
+    )?;
+    Ok(cluster_result(c, options, target, start))
+}
+
+fn cluster_result(
+    c: Clustered,
+    options: &SimplifyOptions,
+    target: usize,
+    start: Instant,
+) -> Simplified {
+    let st = &c.stats;
+    let out_n = c.mesh.triangles.len();
+    let diag = c.bbox_diagonal;
+    let (stop_reason, stop_detail, target) = if c.triangles_in == 0 {
+        (
+            StopReason::EmptyInput,
+            "the input has no triangles".to_string(),
+            0,
+        )
+    } else if options.cluster.cell_size.is_some() {
+        (
+            StopReason::TargetReached,
+            format!(
+                "clustered on a {}×{}×{} grid of cells of side {:.6e} (given)",
+                st.grid[0], st.grid[1], st.grid[2], st.cell_size
+            ),
+            out_n,
+        )
+    } else if (out_n as f64 - target as f64).abs() <= options.cluster.tolerance * target as f64 {
+        (
+            StopReason::TargetReached,
+            format!(
+                "{out_n} triangles, within {}% of the target {target}: cells of side {:.6e} ({} counting passes, {} builds)",
+                100.0 * options.cluster.tolerance,
+                st.cell_size,
+                st.search_passes,
+                st.builds
+            ),
+            target,
+        )
+    } else {
+        (
+            StopReason::NoLegalCollapse,
+            format!(
+                "no grid gives {target} triangles within {}%: the closest found gives {out_n} (cells of side {:.6e})",
+                100.0 * options.cluster.tolerance,
+                st.cell_size
+            ),
+            target,
+        )
+    };
+    let report = Report {
+        method: Method::Cluster.name(),
+        triangles_in: c.triangles_in,
+        vertices_in: c.vertices_in,
+        target_triangles: target,
+        triangles_out: out_n,
+        vertices_out: c.mesh.positions.len(),
+        error: if diag > 0.0 { st.max_error / diag } else { 0.0 },
+        error_absolute: st.max_error,
+        bbox_diagonal: diag,
+        stop_reason,
+        stop_detail,
+        seconds: start.elapsed().as_secs_f64(),
+        collapses: 0,
+        non_edge_contractions: 0,
+        degenerate_removed: 0,
+        duplicate_removed: 0,
+        rejections: Rejections::default(),
+        rescans: 0,
+        soft_filters_relaxed: false,
+        cluster: Some(c.stats),
+    };
+    Simplified {
+        mesh: c.mesh,
+        report,
+        vertex_source: c.vertex_source,
+    }
 }
 
 /// The surviving triangles over a compacted vertex buffer in first-use order.

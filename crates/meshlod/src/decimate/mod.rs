@@ -5,9 +5,11 @@
 //! [`crate::filter::Filter`]s over the always-on collapse operator
 //! ([`crate::collapse`]), in cost order from a priority queue with lazy
 //! invalidation, until the [`StopRule`] holds; it reports through an [`Observer`]
-//! and returns an [`Outcome`] that says why it stopped. Vertex-removal (Schroeder)
-//! and clustering drivers will sit beside it.
+//! and returns an [`Outcome`] that says why it stopped. [`cluster`] is vertex
+//! clustering (Rossignac & Borrel 1993, Lindstrom 2000): one pass over a grid, in
+//! memory or streamed from a file.
 
+pub mod cluster;
 pub mod edge_collapse;
 mod heap;
 

@@ -18,6 +18,7 @@ pub mod obj;
 pub mod off;
 pub mod ply;
 pub mod stl;
+pub mod stream;
 pub(crate) mod text;
 
 use crate::mesh::{Mesh, MeshError};

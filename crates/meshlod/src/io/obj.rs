@@ -43,6 +43,7 @@
 //! same `f32`, so write → read is exact.
 
 use super::text::{parse_f32, parse_i64, show};
+use super::stream::{Sink, Source, StreamError};
 use super::{FormatError, Location, Part, Scene, IDENTITY};
 use crate::mesh::{Mesh, VertexAttributes};
 use std::collections::HashMap;
@@ -805,6 +806,120 @@ impl ObjReader {
             gltf: None,
         })
     }
+}
+
+/// Streams an OBJ file (see [`super::stream`]): `v` positions are kept, faces are
+/// fan-triangulated and passed on as they come, with the group ids [`read`] gives
+/// (`usemtl` names in order of first appearance; an unnamed group first when faces
+/// come before the first `usemtl`). Errors name the line as [`read`]'s do; the
+/// `vt`/`vn` parts of corners are not checked.
+pub(crate) fn stream<R: std::io::Read>(
+    src: &mut Source<R>,
+    sink: &mut Sink<'_>,
+) -> Result<(), StreamError> {
+    let mut positions: Vec<[f32; 3]> = Vec::new();
+    let mut names: Vec<String> = Vec::new();
+    let mut ids: HashMap<String, u32> = HashMap::new();
+    let mut group_of = |name: String, names: &mut Vec<String>| -> u32 {
+        *ids.entry(name.clone()).or_insert_with(|| {
+            names.push(name);
+            names.len() as u32 - 1
+        })
+    };
+    let mut current = 0u32;
+    let mut triangles = 0u64;
+    let mut line = Vec::new();
+    let mut joined = Vec::new();
+    let mut ln = 0u64;
+    let mut corners: Vec<u32> = Vec::new();
+    while src.line(&mut line)? {
+        ln += 1;
+        let first = ln;
+        // A line ending in a backslash continues on the next one.
+        let text: &[u8] = if line.last() == Some(&b'\\') && !is_comment(&line) {
+            joined.clear();
+            joined.extend_from_slice(&line[..line.len() - 1]);
+            let mut more = Vec::new();
+            while src.line(&mut more)? {
+                ln += 1;
+                joined.push(b' ');
+                if more.last() == Some(&b'\\') {
+                    joined.extend_from_slice(&more[..more.len() - 1]);
+                } else {
+                    joined.extend_from_slice(&more);
+                    break;
+                }
+            }
+            &joined
+        } else {
+            &line
+        };
+        let mut c = Cursor::new(text);
+        match c.token() {
+            Some(b"v") => {
+                let mut v = [0f32; 7];
+                let n = ObjReader::numbers(&mut c, first, "vertex coordinate", &mut v)?;
+                if n < 3 {
+                    return Err(FormatError::new(
+                        Location::Line(first),
+                        format!("a vertex needs 3 coordinates, this one has {n}"),
+                    )
+                    .into());
+                }
+                let p = [v[0], v[1], v[2]];
+                sink.vertex(p);
+                positions.push(p);
+            }
+            Some(b"f") => {
+                corners.clear();
+                while let Some(token) = c.token() {
+                    let v_field = token.split(|&b| b == b'/').next().unwrap_or_default();
+                    if v_field.is_empty() {
+                        return Err(FormatError::new(
+                            Location::Line(first),
+                            format!("face corner '{}' has no vertex index", show(token)),
+                        )
+                        .into());
+                    }
+                    corners.push(resolve_index(v_field, positions.len(), "vertex", first)?);
+                }
+                if corners.len() < 3 {
+                    return Err(FormatError::new(
+                        Location::Line(first),
+                        format!(
+                            "a face needs at least 3 vertices, this one has {}",
+                            corners.len()
+                        ),
+                    )
+                    .into());
+                }
+                for k in 1..corners.len() - 1 {
+                    let t = [corners[0], corners[k], corners[k + 1]]
+                        .map(|i| positions[i as usize]);
+                    sink.triangle(&t, current);
+                    triangles += 1;
+                }
+            }
+            Some(b"usemtl") => {
+                let name = String::from_utf8_lossy(c.rest()).into_owned();
+                if names.is_empty() && triangles > 0 {
+                    group_of(String::new(), &mut names);
+                }
+                current = group_of(name, &mut names);
+            }
+            _ => {}
+        }
+    }
+    if positions.is_empty() {
+        return Err(FormatError::new(
+            Location::File,
+            "no vertices ('v' lines): empty or not an OBJ file",
+        )
+        .into());
+    }
+    sink.summary.group_names = names;
+    sink.summary.vertices_held = positions.len() as u64;
+    Ok(())
 }
 
 /// When any colour component exceeds 1 the colours were written as 0–255: scales all of

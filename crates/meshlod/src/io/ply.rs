@@ -48,6 +48,7 @@
 //! (colours exactly when they are multiples of 1/255).
 
 use super::text::{self, Lines};
+use super::stream::{Sink, Source, StreamError};
 use super::{max_elements, FormatError, Location};
 use crate::mesh::{Mesh, VertexAttributes};
 use std::io::Write as _;
@@ -398,6 +399,12 @@ fn header_error(line: u64, message: impl Into<String>) -> FormatError {
 
 /// Parses the header; returns it and the line iterator positioned at the body.
 fn parse_header(data: &[u8]) -> Result<(Header, Lines<'_>), FormatError> {
+    parse_header_sized(data, data.len())
+}
+
+/// [`parse_header`] where `data` may hold only the start of a file of `file_len`
+/// bytes (element counts are checked against the file's length).
+fn parse_header_sized(data: &[u8], file_len: usize) -> Result<(Header, Lines<'_>), FormatError> {
     if data.is_empty() {
         return Err(FormatError::new(Location::File, "empty file"));
     }
@@ -556,7 +563,7 @@ fn parse_header(data: &[u8]) -> Result<(Header, Lines<'_>), FormatError> {
     let encoding =
         encoding.ok_or_else(|| header_error(end_line, "the header has no 'format' line"))?;
     let body_start = lines.offset();
-    let body_len = data.len().saturating_sub(body_start);
+    let body_len = file_len.saturating_sub(body_start);
     for e in &elements {
         if e.props.is_empty() {
             // Records without properties take no room and are never stored.
@@ -970,6 +977,215 @@ fn non_finite(e: &Element, i: usize, prop: usize, v: f64, location: Location) ->
 #[inline]
 fn check_index(v: f64, vertices: usize) -> Option<u32> {
     (v >= 0.0 && v < vertices as f64 && v <= f64::from(u32::MAX)).then_some(v as u32)
+}
+
+// ---------------------------------------------------------------------------------
+// Streaming (binary only)
+// ---------------------------------------------------------------------------------
+
+/// Streams a binary PLY file (see [`super::stream`]): vertex positions are kept,
+/// faces and triangle strips are passed on one triangle at a time, with the same
+/// triangulation, group ids and errors as [`read`]. The vertex element must come
+/// before the faces.
+pub(crate) fn stream<R: std::io::Read>(
+    src: &mut Source<R>,
+    file_len: u64,
+    sink: &mut Sink<'_>,
+) -> Result<(), StreamError> {
+    // The header: lines up to `end_header`, at most 1 MiB.
+    let mut head = Vec::new();
+    let mut line = Vec::new();
+    loop {
+        if !src.line(&mut line)? {
+            break;
+        }
+        head.extend_from_slice(&line);
+        head.push(b'\n');
+        if text::tokens(&line).next() == Some(&b"end_header"[..]) {
+            break;
+        }
+        if head.len() > 1 << 20 {
+            return Err(FormatError::new(
+                Location::File,
+                "the header is longer than 1 MiB without 'end_header'",
+            )
+            .into());
+        }
+    }
+    if head.is_empty() {
+        return Err(FormatError::new(Location::File, "empty file").into());
+    }
+    let len = usize::try_from(file_len).unwrap_or(usize::MAX);
+    let (header, _) = parse_header_sized(&head, len)?;
+    let plan = Plan::new(&header)?;
+    match header.encoding {
+        Encoding::Ascii => Err(FormatError::new(
+            Location::File,
+            "ASCII PLY cannot be streamed (convert it to binary, or read it into memory)",
+        )
+        .into()),
+        Encoding::LittleEndian => stream_body::<false, R>(src, &header, &plan, sink),
+        Encoding::BigEndian => stream_body::<true, R>(src, &header, &plan, sink),
+    }
+}
+
+/// Reads `n` bytes at the source's cursor (without consuming them).
+fn need<R: std::io::Read>(
+    src: &mut Source<R>,
+    n: usize,
+    e: &Element,
+    i: usize,
+) -> Result<(), StreamError> {
+    if src.ensure(n)? {
+        Ok(())
+    } else {
+        Err(FormatError::new(
+            Location::Byte(src.offset()),
+            format!(
+                "the file ends inside {} {i} of {}",
+                e.display_name(),
+                e.count
+            ),
+        )
+        .into())
+    }
+}
+
+fn stream_body<const BE: bool, R: std::io::Read>(
+    src: &mut Source<R>,
+    h: &Header,
+    plan: &Plan,
+    sink: &mut Sink<'_>,
+) -> Result<(), StreamError> {
+    let mut positions: Vec<[f32; 3]> = Vec::new();
+    let mut have_vertices = false;
+    let mut tris: Vec<[u32; 3]> = Vec::new();
+    for ((e, kind), roles) in h.elements.iter().zip(&plan.kinds).zip(&plan.roles) {
+        if e.props.is_empty() || e.count == 0 {
+            continue;
+        }
+        let is_face = matches!(kind, ElementKind::Face | ElementKind::Strips);
+        if is_face && !have_vertices && plan.vertex_count > 0 {
+            return Err(FormatError::new(
+                Location::Byte(src.offset()),
+                format!(
+                    "element '{}' comes before the vertices: such a file cannot be streamed",
+                    e.display_name()
+                ),
+            )
+            .into());
+        }
+        let strips = *kind == ElementKind::Strips;
+        if *kind == ElementKind::Vertex {
+            positions.reserve(e.count.min(1 << 24));
+        }
+        let mut strip = Strip::default();
+        for i in 0..e.count {
+            let record = src.offset();
+            let mut p = [0f32; 3];
+            let mut group = 0u32;
+            tris.clear();
+            for (pi, (prop, &role)) in e.props.iter().zip(roles).enumerate() {
+                match prop.kind {
+                    Kind::Scalar(ty) => {
+                        need(src, ty.size(), e, i)?;
+                        let v = scalar::<BE>(src.bytes(), 0, ty).unwrap_or(f64::NAN);
+                        match role {
+                            Role::Pos(k) => {
+                                let f = v as f32;
+                                if !f.is_finite() {
+                                    return Err(non_finite(
+                                        e,
+                                        i,
+                                        pi,
+                                        v,
+                                        Location::Byte(record),
+                                    )
+                                    .into());
+                                }
+                                if let Some(slot) = p.get_mut(k) {
+                                    *slot = f;
+                                }
+                            }
+                            Role::Group => {
+                                group = group_id(v, i, Location::Byte(src.offset()))?;
+                            }
+                            _ => {}
+                        }
+                        src.consume(ty.size());
+                    }
+                    Kind::List { count, item } => {
+                        need(src, count.size(), e, i)?;
+                        let c = scalar::<BE>(src.bytes(), 0, count).unwrap_or(-1.0);
+                        if c < 0.0 {
+                            return Err(FormatError::new(
+                                Location::Byte(src.offset()),
+                                format!(
+                                    "{} {i} has a list of negative length {c}",
+                                    e.display_name()
+                                ),
+                            )
+                            .into());
+                        }
+                        src.consume(count.size());
+                        let n = c as usize;
+                        let indices = role == Role::Indices && is_face;
+                        if indices && !strips && n < 3 {
+                            return Err(too_few(i, n, Location::Byte(record)).into());
+                        }
+                        need(src, n * item.size(), e, i)?;
+                        if indices {
+                            strip.restart();
+                            let mut fan = Fan::default();
+                            let vertices = positions.len();
+                            for k in 0..n {
+                                let v = scalar::<BE>(src.bytes(), k * item.size(), item)
+                                    .unwrap_or(f64::NAN);
+                                if strips && v == -1.0 {
+                                    strip.restart();
+                                    continue;
+                                }
+                                let Some(v) = check_index(v, vertices) else {
+                                    let what = if strips { "tristrip" } else { "face" };
+                                    return Err(FormatError::new(
+                                        Location::Byte(record),
+                                        format!(
+                                            "{what} {i} refers to vertex {v}, but the file has {vertices} vertices"
+                                        ),
+                                    )
+                                    .into());
+                                };
+                                if strips {
+                                    strip.push(v, &mut tris);
+                                } else {
+                                    fan.push(v, &mut tris);
+                                }
+                            }
+                        }
+                        src.consume(n * item.size());
+                    }
+                }
+            }
+            match kind {
+                ElementKind::Vertex => {
+                    sink.vertex(p);
+                    positions.push(p);
+                }
+                ElementKind::Face | ElementKind::Strips => {
+                    for t in &tris {
+                        let c = t.map(|v| positions[v as usize]);
+                        sink.triangle(&c, group);
+                    }
+                }
+                ElementKind::Other => {}
+            }
+        }
+        if *kind == ElementKind::Vertex {
+            have_vertices = true;
+        }
+    }
+    sink.summary.vertices_held = positions.len() as u64;
+    Ok(())
 }
 
 // ---------------------------------------------------------------------------------

@@ -30,6 +30,7 @@
 //! starts with `solid`, so readers cannot mistake it for ASCII.
 
 use super::text::{self, Lines};
+use super::stream::{Sink, Source, StreamError};
 use super::{max_elements, FormatError, Location};
 use crate::mesh::{Mesh, Weld};
 
@@ -367,6 +368,254 @@ fn read_ascii(data: &[u8]) -> Result<Soup, FormatError> {
         }
     }
     Ok(soup)
+}
+
+/// Streams an STL file triangle by triangle (see [`super::stream`]): the same
+/// binary/ASCII decision, triangles and errors as [`read`], without welding.
+pub(crate) fn stream<R: std::io::Read>(
+    src: &mut Source<R>,
+    file_len: u64,
+    sink: &mut Sink<'_>,
+) -> Result<(), StreamError> {
+    if file_len == 0 || !src.ensure(1)? {
+        return Err(FormatError::new(Location::File, "empty file").into());
+    }
+    src.ensure(1024)?;
+    let head = src.bytes();
+    let ascii = {
+        let binary_exact = binary_count(head).is_some_and(|n| 84 + 50 * n == file_len);
+        let start = head
+            .iter()
+            .position(|b| !b.is_ascii_whitespace())
+            .unwrap_or(head.len());
+        let begins_solid = head
+            .get(start..start + 5)
+            .is_some_and(|w| w.eq_ignore_ascii_case(b"solid"));
+        !binary_exact && begins_solid && !head.iter().take(1024).any(|&b| b == 0)
+    };
+    if ascii {
+        return stream_ascii(src, sink);
+    }
+    if !src.ensure(84)? {
+        return Err(FormatError::new(
+            Location::Byte(file_len),
+            format!(
+                "the file has {file_len} bytes: too short for a binary STL header (84 bytes) and it does not start with 'solid'"
+            ),
+        )
+        .into());
+    }
+    let n = binary_count(src.bytes()).unwrap_or(0);
+    let fits = file_len.saturating_sub(84) / 50;
+    if n > fits {
+        return Err(FormatError::new(
+            Location::Byte(84 + 50 * fits),
+            format!(
+                "the header says {n} triangles ({} bytes), but the file ends inside triangle {fits} ({file_len} bytes)",
+                84 + 50 * n,
+            ),
+        )
+        .into());
+    }
+    src.consume(84);
+    for t in 0..n {
+        if !src.ensure(50)? {
+            return Err(FormatError::new(
+                Location::Byte(src.offset()),
+                format!("the file ends inside triangle {t} of {n}"),
+            )
+            .into());
+        }
+        let rec = src.bytes();
+        let mut tri = [[0f32; 3]; 3];
+        for (k, corner) in tri.iter_mut().enumerate() {
+            let at = 12 + 12 * k;
+            for (j, c) in corner.iter_mut().enumerate() {
+                let o = at + 4 * j;
+                *c = rec
+                    .get(o..o + 4)
+                    .and_then(|b| b.try_into().ok())
+                    .map_or(f32::NAN, f32::from_le_bytes);
+            }
+            if !corner.iter().all(|v| v.is_finite()) {
+                return Err(FormatError::new(
+                    Location::Byte(84 + 50 * t + at as u64),
+                    format!(
+                        "triangle {t} vertex {k} has a non-finite coordinate ({}, {}, {})",
+                        corner[0], corner[1], corner[2]
+                    ),
+                )
+                .into());
+            }
+        }
+        for p in &tri {
+            sink.vertex(*p);
+        }
+        sink.triangle(&tri, 0);
+        src.consume(50);
+    }
+    Ok(())
+}
+
+/// Whitespace tokens of a streamed text file, one owned token at a time.
+struct StreamTokens {
+    line: Vec<u8>,
+    pos: usize,
+    number: u64,
+    token: Vec<u8>,
+}
+
+impl StreamTokens {
+    /// Reads the next token into `self.token`; false at the end of the file.
+    fn next<R: std::io::Read>(&mut self, src: &mut Source<R>) -> Result<bool, StreamError> {
+        loop {
+            let rest = self.line.get(self.pos..).unwrap_or_default();
+            if let Some(s) = rest.iter().position(|b| !b.is_ascii_whitespace()) {
+                let r = &rest[s..];
+                let e = r.iter().position(u8::is_ascii_whitespace).unwrap_or(r.len());
+                self.token.clear();
+                self.token.extend_from_slice(&r[..e]);
+                self.pos += s + e;
+                return Ok(true);
+            }
+            if !src.line(&mut self.line)? {
+                return Ok(false);
+            }
+            self.pos = 0;
+            self.number += 1;
+        }
+    }
+
+    fn is(&self, word: &str) -> bool {
+        self.token.eq_ignore_ascii_case(word.as_bytes())
+    }
+
+    fn expect<R: std::io::Read>(
+        &mut self,
+        src: &mut Source<R>,
+        word: &str,
+        context: &str,
+    ) -> Result<(), StreamError> {
+        if !self.next(src)? {
+            return Err(self.eof(&format!("'{word}' {context}")));
+        }
+        if self.is(word) {
+            Ok(())
+        } else {
+            Err(FormatError::new(
+                Location::Line(self.number.max(1)),
+                format!("expected '{word}' {context}, found '{}'", text::show(&self.token)),
+            )
+            .into())
+        }
+    }
+
+    fn number<R: std::io::Read>(
+        &mut self,
+        src: &mut Source<R>,
+        what: &str,
+    ) -> Result<f32, StreamError> {
+        if !self.next(src)? {
+            return Err(self.eof(what));
+        }
+        Ok(text::parse_f32(&self.token, self.number.max(1), what)?)
+    }
+
+    fn eof(&self, expected: &str) -> StreamError {
+        FormatError::new(
+            Location::Line(self.number.max(1)),
+            format!("the file ends where {expected} was expected"),
+        )
+        .into()
+    }
+
+    fn unexpected(&self, expected: &str) -> StreamError {
+        FormatError::new(
+            Location::Line(self.number.max(1)),
+            format!("expected {expected}, found '{}'", text::show(&self.token)),
+        )
+        .into()
+    }
+}
+
+fn stream_ascii<R: std::io::Read>(src: &mut Source<R>, sink: &mut Sink<'_>) -> Result<(), StreamError> {
+    let mut toks = StreamTokens {
+        line: Vec::new(),
+        pos: 0,
+        number: 0,
+        token: Vec::new(),
+    };
+    let mut facet = 0usize;
+    let mut corners: Vec<[f32; 3]> = Vec::with_capacity(3);
+    while toks.next(src)? {
+        if !toks.is("solid") {
+            return Err(toks.unexpected("'solid'"));
+        }
+        toks.pos = toks.line.len();
+        loop {
+            if !toks.next(src)? {
+                return Err(toks.eof("'facet' or 'endsolid'"));
+            }
+            if toks.is("endsolid") {
+                toks.pos = toks.line.len();
+                break;
+            }
+            if !toks.is("facet") {
+                return Err(toks.unexpected("'facet' or 'endsolid'"));
+            }
+            toks.expect(src, "normal", "after 'facet'")?;
+            for _ in 0..3 {
+                toks.number(src, "a facet normal component")?;
+            }
+            toks.expect(src, "outer", "after the facet normal")?;
+            toks.expect(src, "loop", "after 'outer'")?;
+            corners.clear();
+            loop {
+                if !toks.next(src)? {
+                    return Err(toks.eof("'vertex' or 'endloop'"));
+                }
+                if toks.is("endloop") {
+                    break;
+                }
+                if !toks.is("vertex") {
+                    return Err(toks.unexpected("'vertex' or 'endloop'"));
+                }
+                let p = [
+                    toks.number(src, "a vertex x coordinate")?,
+                    toks.number(src, "a vertex y coordinate")?,
+                    toks.number(src, "a vertex z coordinate")?,
+                ];
+                if !p.iter().all(|v| v.is_finite()) {
+                    return Err(FormatError::new(
+                        Location::Line(toks.number.max(1)),
+                        format!(
+                            "facet {facet} has a non-finite vertex coordinate ({}, {}, {})",
+                            p[0], p[1], p[2]
+                        ),
+                    )
+                    .into());
+                }
+                corners.push(p);
+            }
+            if corners.len() < 3 {
+                return Err(FormatError::new(
+                    Location::Line(toks.number.max(1)),
+                    format!("facet {facet} has {} vertices; a facet needs 3", corners.len()),
+                )
+                .into());
+            }
+            for k in 1..corners.len() - 1 {
+                let t = [corners[0], corners[k], corners[k + 1]];
+                for p in &t {
+                    sink.vertex(*p);
+                }
+                sink.triangle(&t, 0);
+            }
+            toks.expect(src, "endfacet", "after 'endloop'")?;
+            facet += 1;
+        }
+    }
+    Ok(())
 }
 
 /// Welds triangle corners into an indexed mesh.

@@ -1,0 +1,268 @@
+//! What a cell accumulates from the triangles that touch it, and the representative
+//! point computed from it.
+//!
+//! Every cell sums, **in triangle order**, the contributions of the triangles with a
+//! corner in it. Both the in-memory path (parallel over ranges of cells) and the
+//! streaming path (sequential) add the same contributions in the same order, so
+//! they produce bit-identical sums whatever the thread count.
+
+use super::Representative;
+use crate::quadric::{Quadric, DEFAULT_CONDITION};
+
+/// A triangle prepared once: corners relative to the grid origin (f64), its unit
+/// normal and plane offset (relative to the grid origin), and its area.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct Prepared {
+    pub p: [[f64; 3]; 3],
+    pub n: [f64; 3],
+    pub d: f64,
+    pub area: f64,
+}
+
+impl Prepared {
+    /// Prepares the triangle `corners` for a grid at `origin`.
+    #[inline]
+    pub fn new(corners: &[[f32; 3]; 3], origin: [f64; 3]) -> Self {
+        let p = corners.map(|c| std::array::from_fn(|k| f64::from(c[k]) - origin[k]));
+        let e1 = sub(p[1], p[0]);
+        let e2 = sub(p[2], p[0]);
+        let c = [
+            e1[1] * e2[2] - e1[2] * e2[1],
+            e1[2] * e2[0] - e1[0] * e2[2],
+            e1[0] * e2[1] - e1[1] * e2[0],
+        ];
+        let len = (c[0] * c[0] + c[1] * c[1] + c[2] * c[2]).sqrt();
+        if len > 0.0 && len.is_finite() {
+            let n = c.map(|x| x / len);
+            Self {
+                p,
+                n,
+                d: -(n[0] * p[0][0] + n[1] * p[0][1] + n[2] * p[0][2]),
+                area: 0.5 * len,
+            }
+        } else {
+            Self {
+                p,
+                n: [0.0; 3],
+                d: 0.0,
+                area: 0.0,
+            }
+        }
+    }
+}
+
+/// The sums of one cell.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub(crate) struct Acc {
+    /// Area-weighted plane quadric in the cell's local frame (origin at its minimum
+    /// corner); only filled for [`Representative::Quadric`].
+    pub q: Quadric,
+    /// Σ wᵢ pᵢ over the corners in the cell (relative to the grid origin).
+    pub wsum: [f64; 3],
+    /// Σ wᵢ.
+    pub w: f64,
+    /// Σ pᵢ (unweighted; the fallback when every weight is zero).
+    pub psum: [f64; 3],
+    /// Number of corners.
+    pub n: f64,
+}
+
+/// Adds triangle `t` to the cell whose minimum corner is `corner` (relative to the
+/// grid origin). `mask` says which corners lie in the cell; `weights` are the corner
+/// weights of the average. The plane quadric is added once per cell the triangle
+/// touches (Lindstrom 2000), when `quadric` is set.
+#[inline]
+pub(crate) fn contribute(
+    acc: &mut Acc,
+    corner: [f64; 3],
+    t: &Prepared,
+    mask: [bool; 3],
+    weights: [f64; 3],
+    quadric: bool,
+) {
+    if quadric && t.area > 0.0 {
+        let d = t.d + t.n[0] * corner[0] + t.n[1] * corner[1] + t.n[2] * corner[2];
+        acc.q.add(&Quadric::from_plane(t.n, d, t.area));
+    }
+    for k in 0..3 {
+        if mask[k] {
+            let p = t.p[k];
+            let w = weights[k];
+            for j in 0..3 {
+                acc.wsum[j] += w * p[j];
+                acc.psum[j] += p[j];
+            }
+            acc.w += w;
+            acc.n += 1.0;
+        }
+    }
+}
+
+/// The representative of a cell, in the cell's local frame, and its error: for the
+/// quadric representative the area-weighted RMS distance to the cell's planes
+/// ([`Quadric::distance`]), otherwise `None`.
+pub(crate) fn representative(
+    acc: &Acc,
+    corner: [f64; 3],
+    cell: f64,
+    how: Representative,
+) -> ([f64; 3], Option<f64>) {
+    let mean = if acc.w > 0.0 {
+        acc.wsum.map(|x| x / acc.w)
+    } else if acc.n > 0.0 {
+        acc.psum.map(|x| x / acc.n)
+    } else {
+        std::array::from_fn(|k| corner[k] + 0.5 * cell)
+    };
+    let clamp = |p: [f64; 3]| -> [f64; 3] { p.map(|v| v.clamp(0.0, cell)) };
+    let mean = clamp(std::array::from_fn(|k| mean[k] - corner[k]));
+    if how != Representative::Quadric || acc.q.weight <= 0.0 {
+        let err = (how == Representative::Quadric).then_some(0.0);
+        return (mean, err);
+    }
+    let q = &acc.q;
+    let inside = |x: &[f64; 3]| x.iter().all(|&v| (0.0..=cell).contains(&v));
+    let x = match q.solve(mean, DEFAULT_CONDITION) {
+        Some(x) if inside(&x) => x,
+        _ => clamp(pseudo_inverse_minimum(q, mean)),
+    };
+    let err = q.distance(q.evaluate(x));
+    (x, Some(err))
+}
+
+/// Lindstrom's rank-deficient minimiser: `x = c − A⁺ (A c + b)`, with the
+/// pseudo-inverse `A⁺` dropping eigenvalues below `10⁻³` of the largest, so that
+/// along flat directions the point stays at `c` (the cell's mean).
+fn pseudo_inverse_minimum(q: &Quadric, c: [f64; 3]) -> [f64; 3] {
+    let m = &q.m;
+    let a = [[m[0], m[1], m[2]], [m[1], m[4], m[5]], [m[2], m[5], m[7]]];
+    let r: [f64; 3] = std::array::from_fn(|i| {
+        a[i][0] * c[0] + a[i][1] * c[1] + a[i][2] * c[2] + [m[3], m[6], m[8]][i]
+    });
+    let (values, vectors) = eigen_symmetric(a);
+    let top = values.iter().fold(0.0f64, |acc, &v| acc.max(v.abs()));
+    if !(top > 0.0 && top.is_finite()) {
+        return c;
+    }
+    let mut x = c;
+    for (i, &l) in values.iter().enumerate() {
+        if l > 1e-3 * top {
+            let v = [vectors[0][i], vectors[1][i], vectors[2][i]];
+            let s = (v[0] * r[0] + v[1] * r[1] + v[2] * r[2]) / l;
+            for k in 0..3 {
+                x[k] -= s * v[k];
+            }
+        }
+    }
+    if x.iter().all(|v| v.is_finite()) {
+        x
+    } else {
+        c
+    }
+}
+
+/// Eigenvalues and eigenvectors (columns of the returned matrix) of a symmetric 3×3
+/// matrix by cyclic Jacobi rotations.
+pub(crate) fn eigen_symmetric(mut a: [[f64; 3]; 3]) -> ([f64; 3], [[f64; 3]; 3]) {
+    let mut v = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
+    for _sweep in 0..32 {
+        let off = a[0][1] * a[0][1] + a[0][2] * a[0][2] + a[1][2] * a[1][2];
+        let diag = a[0][0] * a[0][0] + a[1][1] * a[1][1] + a[2][2] * a[2][2];
+        if off <= 1e-30 * diag || off == 0.0 {
+            break;
+        }
+        for (p, qq) in [(0usize, 1usize), (0, 2), (1, 2)] {
+            let apq = a[p][qq];
+            if apq == 0.0 {
+                continue;
+            }
+            let theta = (a[qq][qq] - a[p][p]) / (2.0 * apq);
+            let t = theta.signum() / (theta.abs() + (theta * theta + 1.0).sqrt());
+            let t = if theta == 0.0 { 1.0 } else { t };
+            let c = 1.0 / (t * t + 1.0).sqrt();
+            let s = t * c;
+            // A ← Jᵀ A J for the rotation J in the (p, q) plane.
+            for k in 0..3 {
+                let akp = a[k][p];
+                let akq = a[k][qq];
+                a[k][p] = c * akp - s * akq;
+                a[k][qq] = s * akp + c * akq;
+            }
+            for k in 0..3 {
+                let apk = a[p][k];
+                let aqk = a[qq][k];
+                a[p][k] = c * apk - s * aqk;
+                a[qq][k] = s * apk + c * aqk;
+            }
+            for row in &mut v {
+                let vp = row[p];
+                let vq = row[qq];
+                row[p] = c * vp - s * vq;
+                row[qq] = s * vp + c * vq;
+            }
+        }
+    }
+    ([a[0][0], a[1][1], a[2][2]], v)
+}
+
+#[inline]
+fn sub(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
+    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn jacobi_diagonalises() {
+        let a = [[4.0, 1.0, 2.0], [1.0, 3.0, 0.5], [2.0, 0.5, 5.0]];
+        let (l, v) = eigen_symmetric(a);
+        for i in 0..3 {
+            let x = [v[0][i], v[1][i], v[2][i]];
+            for r in 0..3 {
+                let ax = a[r][0] * x[0] + a[r][1] * x[1] + a[r][2] * x[2];
+                assert!((ax - l[i] * x[r]).abs() < 1e-9, "{ax} vs {}", l[i] * x[r]);
+            }
+        }
+        let trace: f64 = l.iter().sum();
+        assert!((trace - 12.0).abs() < 1e-9);
+    }
+
+    /// A flat cell (all triangles in the plane z = 0.3 of a unit cell): the quadric is
+    /// rank 1, so the representative keeps the mean's x and y and lands on the plane.
+    #[test]
+    fn flat_cell_projects_the_mean_onto_the_plane() {
+        let mut acc = Acc::default();
+        let tri = [[0.1, 0.1, 0.3], [0.9, 0.2, 0.3], [0.2, 0.7, 0.3]];
+        let t = Prepared::new(&tri, [0.0; 3]);
+        contribute(&mut acc, [0.0; 3], &t, [true; 3], [t.area / 3.0; 3], true);
+        let (x, err) = representative(&acc, [0.0; 3], 1.0, Representative::Quadric);
+        assert!((x[2] - f64::from(0.3f32)).abs() < 1e-12, "{x:?}");
+        assert!((x[0] - 0.4).abs() < 1e-6 && (x[1] - 1.0 / 3.0).abs() < 1e-6, "{x:?}");
+        assert!(err.unwrap() < 1e-9);
+    }
+
+    /// Three orthogonal planes meeting at (0.25, 0.5, 0.75): the corner is found.
+    #[test]
+    fn corner_cell_finds_the_corner() {
+        let mut acc = Acc::default();
+        let c = [0.25f32, 0.5, 0.75];
+        let tris = [
+            [c, [c[0] + 0.2, c[1], c[2]], [c[0], c[1] + 0.2, c[2]]],
+            [c, [c[0], c[1] + 0.2, c[2]], [c[0], c[1], c[2] + 0.2]],
+            [c, [c[0], c[1], c[2] + 0.2], [c[0] + 0.2, c[1], c[2]]],
+        ];
+        for tri in &tris {
+            let t = Prepared::new(tri, [0.0; 3]);
+            contribute(&mut acc, [0.0; 3], &t, [true; 3], [1.0; 3], true);
+        }
+        let (x, err) = representative(&acc, [0.0; 3], 1.0, Representative::Quadric);
+        for k in 0..3 {
+            assert!((x[k] - f64::from(c[k])).abs() < 1e-6, "{x:?}");
+        }
+        assert!(err.unwrap() < 1e-6);
+        let (avg, _) = representative(&acc, [0.0; 3], 1.0, Representative::Average);
+        assert!((avg[0] - (0.25 + 0.4 / 9.0)).abs() < 1e-6, "{avg:?}");
+    }
+}

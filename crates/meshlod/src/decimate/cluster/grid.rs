@@ -1,0 +1,313 @@
+//! The uniform grid of clustering cells, and the two open-addressing tables the
+//! clustering uses in its hot loops: cell key → dense cell id, and a set of
+//! unordered index triples (output triangles) for duplicate removal.
+
+/// Bits per axis of a packed cell key: at most `2²¹ = 2,097,152` cells per axis.
+const AXIS_BITS: u32 = 21;
+
+/// Most cells along one axis.
+pub const MAX_CELLS_PER_AXIS: u32 = (1 << AXIS_BITS) - 1;
+
+/// A uniform grid of cubic cells of side `cell`, starting at `origin` (the minimum
+/// corner of the bounding box), `dims` cells along each axis.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Grid {
+    /// The minimum corner of the grid, in mesh units.
+    pub origin: [f64; 3],
+    /// The side of a cell, in mesh units.
+    pub cell: f64,
+    inv: f64,
+    /// Cells along x, y and z.
+    pub dims: [u32; 3],
+}
+
+impl Grid {
+    /// The grid of side `cell` over the box `lo..hi`. The side is raised where needed
+    /// so that no axis has more than [`MAX_CELLS_PER_AXIS`] cells; a box of zero size
+    /// gets one cell (of side 1 when `cell` is not a positive finite number).
+    #[must_use]
+    pub fn new(lo: [f64; 3], hi: [f64; 3], cell: f64) -> Self {
+        let extent = (0..3).map(|k| hi[k] - lo[k]).fold(0.0f64, f64::max);
+        let finest = extent / f64::from(MAX_CELLS_PER_AXIS - 1);
+        let mut cell = if cell.is_finite() && cell > 0.0 {
+            cell
+        } else {
+            extent.max(1.0)
+        };
+        if cell < finest {
+            cell = finest;
+        }
+        if cell <= 0.0 || !cell.is_finite() {
+            cell = 1.0;
+        }
+        let inv = 1.0 / cell;
+        let dims = std::array::from_fn(|k| {
+            let n = ((hi[k] - lo[k]) * inv).floor();
+            (n.clamp(0.0, f64::from(MAX_CELLS_PER_AXIS - 1)) as u32) + 1
+        });
+        Self {
+            origin: lo,
+            cell,
+            inv,
+            dims,
+        }
+    }
+
+    /// The integer cell coordinates of a point (clamped into the grid).
+    #[inline]
+    #[must_use]
+    pub fn coords(&self, p: [f32; 3]) -> [u32; 3] {
+        std::array::from_fn(|k| {
+            let x = ((f64::from(p[k]) - self.origin[k]) * self.inv).floor();
+            // NaN becomes 0 through `as`; the clamp keeps rounding at the far face in.
+            (x.max(0.0) as u32).min(self.dims[k] - 1)
+        })
+    }
+
+    /// The packed key of a point's cell: `i << 42 | j << 21 | k`.
+    #[inline]
+    #[must_use]
+    pub fn key(&self, p: [f32; 3]) -> u64 {
+        pack(self.coords(p))
+    }
+
+    /// The minimum corner of the cell with coordinates `c`, relative to
+    /// [`Self::origin`].
+    #[inline]
+    #[must_use]
+    pub fn corner(&self, c: [u32; 3]) -> [f64; 3] {
+        c.map(|x| f64::from(x) * self.cell)
+    }
+
+    /// Number of cells of the grid (occupied or not).
+    #[must_use]
+    pub fn cell_count(&self) -> u64 {
+        self.dims.iter().map(|&d| u64::from(d)).product()
+    }
+}
+
+/// Packs cell coordinates into a key.
+#[inline]
+#[must_use]
+pub fn pack(c: [u32; 3]) -> u64 {
+    (u64::from(c[0]) << (2 * AXIS_BITS)) | (u64::from(c[1]) << AXIS_BITS) | u64::from(c[2])
+}
+
+/// Unpacks a key into cell coordinates.
+#[inline]
+#[must_use]
+pub fn unpack(key: u64) -> [u32; 3] {
+    let m = (1u64 << AXIS_BITS) - 1;
+    [
+        (key >> (2 * AXIS_BITS)) as u32,
+        ((key >> AXIS_BITS) & m) as u32,
+        (key & m) as u32,
+    ]
+}
+
+#[inline]
+fn mix(x: u64) -> u64 {
+    // A 64-bit finaliser (Stafford's variant 13 of MurmurHash3's fmix64).
+    let mut z = x;
+    z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
+    z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
+    z ^ (z >> 31)
+}
+
+const EMPTY: u64 = u64::MAX;
+
+/// Open-addressing map from packed cell keys to dense ids `0, 1, 2, …` in order of
+/// first insertion. Linear probing, load factor at most 1/2.
+#[derive(Debug, Clone)]
+pub struct CellTable {
+    slots: Vec<(u64, u32)>,
+    mask: usize,
+    keys: Vec<u64>,
+}
+
+impl CellTable {
+    /// A table sized for about `expected` cells.
+    #[must_use]
+    pub fn with_capacity(expected: usize) -> Self {
+        let n = (expected.max(8) * 2).next_power_of_two();
+        Self {
+            slots: vec![(EMPTY, 0); n],
+            mask: n - 1,
+            keys: Vec::with_capacity(expected),
+        }
+    }
+
+    /// Number of cells inserted.
+    #[must_use]
+    pub fn len(&self) -> usize {
+        self.keys.len()
+    }
+
+    /// True when no cell was inserted.
+    #[must_use]
+    pub fn is_empty(&self) -> bool {
+        self.keys.is_empty()
+    }
+
+    /// The key of dense id `id`.
+    #[must_use]
+    pub fn key(&self, id: u32) -> u64 {
+        self.keys[id as usize]
+    }
+
+    /// The keys in dense-id order.
+    #[must_use]
+    pub fn keys(&self) -> &[u64] {
+        &self.keys
+    }
+
+    /// The dense id of `key`, inserting it (with the next id) when new.
+    #[inline]
+    pub fn id(&mut self, key: u64) -> u32 {
+        let mut i = mix(key) as usize & self.mask;
+        loop {
+            let (k, v) = self.slots[i];
+            if k == key {
+                return v;
+            }
+            if k == EMPTY {
+                let id = self.keys.len() as u32;
+                self.slots[i] = (key, id);
+                self.keys.push(key);
+                if self.keys.len() * 2 > self.slots.len() {
+                    self.grow();
+                }
+                return id;
+            }
+            i = (i + 1) & self.mask;
+        }
+    }
+
+    fn grow(&mut self) {
+        let n = self.slots.len() * 2;
+        let old = std::mem::replace(&mut self.slots, vec![(EMPTY, 0); n]);
+        self.mask = n - 1;
+        for (k, v) in old {
+            if k != EMPTY {
+                let mut i = mix(k) as usize & self.mask;
+                while self.slots[i].0 != EMPTY {
+                    i = (i + 1) & self.mask;
+                }
+                self.slots[i] = (k, v);
+            }
+        }
+    }
+
+    /// Bytes held.
+    #[must_use]
+    pub fn bytes(&self) -> usize {
+        self.slots.capacity() * 16 + self.keys.capacity() * 8
+    }
+}
+
+/// Open-addressing set of unordered triples of `u32` (triangles up to rotation and
+/// winding): [`Self::insert`] says whether the triple is new.
+#[derive(Debug, Clone)]
+pub struct TripleSet {
+    slots: Vec<[u32; 3]>,
+    mask: usize,
+    len: usize,
+}
+
+impl TripleSet {
+    /// A set sized for about `expected` triples.
+    #[must_use]
+    pub fn with_capacity(expected: usize) -> Self {
+        let n = (expected.max(8) * 2).next_power_of_two();
+        Self {
+            slots: vec![[u32::MAX; 3]; n],
+            mask: n - 1,
+            len: 0,
+        }
+    }
+
+    /// Inserts the triple `t` (any order); `true` when it was not there yet. The
+    /// entries must be distinct and not `u32::MAX`.
+    #[inline]
+    pub fn insert(&mut self, t: [u32; 3]) -> bool {
+        let mut s = t;
+        s.sort_unstable();
+        let h = mix((u64::from(s[0]) << 32 | u64::from(s[1])) ^ mix(u64::from(s[2])));
+        let mut i = h as usize & self.mask;
+        loop {
+            let slot = self.slots[i];
+            if slot == s {
+                return false;
+            }
+            if slot[0] == u32::MAX {
+                self.slots[i] = s;
+                self.len += 1;
+                if self.len * 2 > self.slots.len() {
+                    self.grow();
+                }
+                return true;
+            }
+            i = (i + 1) & self.mask;
+        }
+    }
+
+    fn grow(&mut self) {
+        let n = self.slots.len() * 2;
+        let old = std::mem::replace(&mut self.slots, vec![[u32::MAX; 3]; n]);
+        self.mask = n - 1;
+        self.len = 0;
+        for s in old {
+            if s[0] != u32::MAX {
+                self.insert(s);
+            }
+        }
+    }
+
+    /// Bytes held.
+    #[must_use]
+    pub fn bytes(&self) -> usize {
+        self.slots.capacity() * 12
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn pack_round_trips() {
+        for c in [[0, 0, 0], [1, 2, 3], [MAX_CELLS_PER_AXIS; 3], [7, 0, 99]] {
+            assert_eq!(unpack(pack(c)), c);
+        }
+    }
+
+    #[test]
+    fn grid_clamps_resolution_and_points() {
+        let g = Grid::new([0.0; 3], [1.0, 2.0, 0.0], 0.5);
+        assert_eq!(g.dims, [3, 5, 1]);
+        assert_eq!(g.coords([1.0, 2.0, 0.0]), [2, 4, 0]);
+        assert_eq!(g.coords([-1.0, 9.0, 0.0]), [0, 4, 0]);
+        let fine = Grid::new([0.0; 3], [1.0; 3], 1e-30);
+        assert!(fine.dims.iter().all(|&d| d <= MAX_CELLS_PER_AXIS));
+        let point = Grid::new([2.0; 3], [2.0; 3], 0.0);
+        assert_eq!(point.dims, [1, 1, 1]);
+        assert_eq!(point.cell, 1.0);
+    }
+
+    #[test]
+    fn tables_insert_and_find() {
+        let mut t = CellTable::with_capacity(1);
+        let ids: Vec<u32> = (0..1000u64).map(|k| t.id(k * 7919)).collect();
+        assert_eq!(ids, (0..1000).collect::<Vec<_>>());
+        assert_eq!(t.id(7919 * 5), 5);
+        assert_eq!(t.len(), 1000);
+        let mut s = TripleSet::with_capacity(1);
+        assert!(s.insert([1, 2, 3]));
+        assert!(!s.insert([3, 1, 2]));
+        assert!(!s.insert([2, 1, 3]));
+        for i in 0..500 {
+            assert!(s.insert([i, i + 1, i + 7]));
+        }
+        assert!(!s.insert([250, 257, 251]));
+    }
+}

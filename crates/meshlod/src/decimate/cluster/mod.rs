@@ -1,0 +1,1143 @@
+//! Vertex clustering: O(n) simplification for huge meshes, in memory or streamed.
+//!
+//! Follows Rossignac & Borrel, *Multi-resolution 3D approximations for rendering
+//! complex scenes* (1993) for the method, and Lindstrom, *Out-of-core simplification
+//! of large polygonal models* (SIGGRAPH 2000) for the quadric representative and the
+//! streaming (triangle-soup, one pass) formulation:
+//!
+//! 1. a uniform grid of cubic cells of side ε covers the bounding box (of all
+//!    vertices; the grid starts at its minimum corner);
+//! 2. every vertex goes to its cell; all vertices of a cell become the cell's
+//!    *representative*;
+//! 3. a triangle whose three corners fall in three different cells becomes a
+//!    triangle over their representatives; the others collapse to an edge or a point
+//!    and are dropped (counted in [`ClusterStats::collapsed_triangles`]); two cells
+//!    are connected when some input edge joined their vertices;
+//! 4. clean-up: copies of a triangle over the same three representatives (any order
+//!    or winding) are dropped, keeping the first in input order; triangles whose
+//!    representatives coincide or are exactly collinear are dropped. The result has
+//!    no degenerate or duplicate triangles, but **may be non-manifold** (a thin part
+//!    collapses to a sheet, an edge or a point): [`ClusterStats`] counts the
+//!    non-manifold edges and vertices of the output.
+//!
+//! # Representatives ([`Representative`])
+//! Every cell sums, over the corners of triangles that fall in it, a weighted
+//! position `Σ wᵢ pᵢ` and `Σ wᵢ`; and, for the quadric representative, the
+//! area-weighted plane quadric of every triangle touching the cell (once per cell the
+//! triangle touches). The sums are per **triangle corner**, so a vertex counts once
+//! per triangle using it; this is what a streamed triangle soup can compute, and the
+//! in-memory path computes exactly the same thing.
+//! - [`Representative::Average`]: `wᵢ = 1`, the mean of the corners.
+//! - [`Representative::Weighted`]: `wᵢ = Aₜ/3 · f(v)`, the triangle's area share times
+//!   a per-vertex factor from [`ClusterWeights`]: 1, a feature measure, or a user
+//!   stream.
+//! - [`Representative::Quadric`] (default, Lindstrom 2000): the minimiser of the
+//!   cell's quadric, solved around the area-weighted mean; when the 3×3 system is
+//!   ill-conditioned or the solution leaves the cell, the rank-deficient minimiser
+//!   (pseudo-inverse keeping eigenvalues above 10⁻³ of the largest, so flat
+//!   directions stay at the mean), clamped into the cell.
+//!
+//! Every representative lies in its cell, so no vertex moves farther than the cell
+//! diagonal `ε√3`.
+//!
+//! # Error reported
+//! For the quadric representative, [`ClusterStats::max_error`] is the largest
+//! area-weighted RMS distance from a representative to the planes of the triangles of
+//! its cell ([`crate::quadric::Quadric::distance`], as for QEM); for the others it is
+//! the cell diagonal `ε√3`, the bound on how far a vertex moved.
+//!
+//! # Attributes and groups
+//! Each output vertex takes the attributes (normals, UVs, colours, …) of the input
+//! vertex of its cell closest to the representative (ties: the lowest index). Where a
+//! UV or normal seam crosses a cell, the triangles on both sides share that one
+//! vertex's attributes, so a texture seam may smear by up to a cell: clustering is a
+//! sloppy method; use QEM for textured assets. Each output triangle keeps the group
+//! (material) of the first input triangle that produced it.
+//!
+//! # Target triangle count
+//! With a target instead of a cell size, ε is searched: each probe is one cheap
+//! parallel pass (cell keys of the vertices, then the number of triangles with three
+//! distinct cells), and ε is updated by secant steps on `log count` against `log ε`
+//! inside a bracket (the count falls roughly as ε⁻²); a few probes land within 2%.
+//! The result is then built; duplicates make it a little smaller than the probe
+//! count, so when it misses the target by more than [`ClusterOptions::tolerance`]
+//! the probe target is scaled and the search resumed (at most three builds).
+//!
+//! # Parallelism and determinism
+//! Cell assignment (vertex keys) and counting are parallel maps. Accumulation is
+//! parallel over contiguous ranges of cells: each worker scans the triangles in order
+//! and adds the contributions to its own cells, so each cell's sums are added in
+//! input order whatever the number of threads, and equal, bit for bit, to the
+//! sequential streaming path. The output is deterministic.
+//!
+//! # Streaming
+//! [`cluster_file`] reads the file twice with [`crate::io::stream`]: once for the
+//! bounding box, the count and total area (and, with a target count, a sample of at
+//! most 2²⁰ triangles for the search — all of them when the file has fewer), then
+//! once more to accumulate. Memory is the cell table and sums (about 200 bytes per
+//! occupied cell), the output triangles and, for indexed formats (PLY, OBJ), the
+//! vertex positions (12 bytes per vertex; a binary STL is a true soup). On the same
+//! input it gives the same mesh as [`cluster_mesh`] (positions and groups; streaming
+//! does not carry attributes).
+
+mod accumulate;
+pub mod grid;
+
+use crate::io::stream::{self, StreamSummary};
+use crate::io::IoError;
+use crate::mesh::stats::TopologyStats;
+use crate::mesh::{Mesh, Weld};
+use crate::simplify::Distance;
+use accumulate::{contribute, representative, Acc, Prepared};
+pub use grid::{CellTable, Grid, TripleSet, MAX_CELLS_PER_AXIS};
+use rayon::prelude::*;
+use serde::Serialize;
+use std::path::Path;
+use thiserror::Error;
+
+/// How a cell's representative point is chosen (see the module documentation).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Representative {
+    /// The minimiser of the cell's summed plane quadrics (Lindstrom 2000).
+    #[default]
+    Quadric,
+    /// The mean of the cell's triangle corners.
+    Average,
+    /// The weighted mean, weights from triangle areas times [`ClusterWeights`].
+    Weighted,
+}
+
+impl Representative {
+    /// The name used on the command line and in reports.
+    #[must_use]
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::Quadric => "quadric",
+            Self::Average => "average",
+            Self::Weighted => "weighted",
+        }
+    }
+}
+
+/// The per-vertex factor of the [`Representative::Weighted`] corner weights
+/// `Aₜ/3 · f(v)`.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub enum ClusterWeights {
+    /// `f = 1`: pure area weighting.
+    #[default]
+    Area,
+    /// A feature measure (after Low & Tan 1997's "floating cells", which favour
+    /// vertices on creases): `f = 1 + 8 (1 − cos θ)` where `θ` is the largest angle
+    /// between the vertex's area-weighted mean normal and the normals of its triangles
+    /// (over positions welded exactly). In memory only.
+    Feature,
+    /// A user-given weight per input vertex (must be finite and non-negative, one per
+    /// vertex). In memory only.
+    PerVertex(Vec<f32>),
+}
+
+/// Options of [`cluster_mesh`] and [`cluster_file`].
+#[derive(Debug, Clone, PartialEq)]
+pub struct ClusterOptions {
+    /// The cell side ε. When set it wins over any target count. Default `None`
+    /// (search ε for the target count).
+    pub cell_size: Option<Distance>,
+    /// The representative. Default [`Representative::Quadric`].
+    pub representative: Representative,
+    /// Weights of [`Representative::Weighted`]. Default [`ClusterWeights::Area`].
+    pub weights: ClusterWeights,
+    /// Relative tolerance on the triangle count when a target is given. Default 0.05.
+    pub tolerance: f64,
+}
+
+impl Default for ClusterOptions {
+    fn default() -> Self {
+        Self {
+            cell_size: None,
+            representative: Representative::Quadric,
+            weights: ClusterWeights::Area,
+            tolerance: 0.05,
+        }
+    }
+}
+
+impl ClusterOptions {
+    /// Sets [`Self::cell_size`].
+    #[must_use]
+    pub fn with_cell_size(mut self, e: Distance) -> Self {
+        self.cell_size = Some(e);
+        self
+    }
+    /// Sets [`Self::representative`].
+    #[must_use]
+    pub fn with_representative(mut self, r: Representative) -> Self {
+        self.representative = r;
+        self
+    }
+    /// Sets [`Self::weights`].
+    #[must_use]
+    pub fn with_weights(mut self, w: ClusterWeights) -> Self {
+        self.weights = w;
+        self
+    }
+    /// Sets [`Self::tolerance`].
+    #[must_use]
+    pub fn with_tolerance(mut self, t: f64) -> Self {
+        self.tolerance = t;
+        self
+    }
+
+    fn check(&self, vertices: Option<usize>) -> Result<(), ClusterError> {
+        if let Some(e) = self.cell_size {
+            let v = match e {
+                Distance::Relative(v) | Distance::Absolute(v) => v,
+            };
+            if !(v > 0.0 && v.is_finite()) {
+                return Err(ClusterError::Option(format!(
+                    "cell size {v} is not a positive finite distance"
+                )));
+            }
+        }
+        if !(self.tolerance >= 0.0 && self.tolerance.is_finite()) {
+            return Err(ClusterError::Option(format!(
+                "tolerance {} is not finite and non-negative",
+                self.tolerance
+            )));
+        }
+        if self.representative == Representative::Weighted {
+            match (&self.weights, vertices) {
+                (ClusterWeights::Area, _) => {}
+                (_, None) => {
+                    return Err(ClusterError::Option(
+                        "feature and per-vertex weights need the mesh in memory (not --stream)"
+                            .into(),
+                    ))
+                }
+                (ClusterWeights::PerVertex(w), Some(n)) => {
+                    if w.len() != n {
+                        return Err(ClusterError::Option(format!(
+                            "{} vertex weights for {n} vertices",
+                            w.len()
+                        )));
+                    }
+                    if let Some(i) = w.iter().position(|x| !(x.is_finite() && *x >= 0.0)) {
+                        return Err(ClusterError::Option(format!(
+                            "vertex weight {i} is {}, not finite and non-negative",
+                            w[i]
+                        )));
+                    }
+                }
+                (ClusterWeights::Feature, Some(_)) => {}
+            }
+        }
+        Ok(())
+    }
+}
+
+/// Errors of clustering.
+#[derive(Debug, Error)]
+pub enum ClusterError {
+    /// An option is out of range.
+    #[error("cluster option: {0}")]
+    Option(String),
+    /// Reading the streamed file failed.
+    #[error(transparent)]
+    Io(#[from] IoError),
+}
+
+/// What clustering did (besides the mesh).
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct ClusterStats {
+    /// The representative used.
+    pub representative: Representative,
+    /// The cell side ε used, in mesh units.
+    pub cell_size: f64,
+    /// Cells along x, y and z.
+    pub grid: [u32; 3],
+    /// Cells holding at least one triangle corner.
+    pub occupied_cells: usize,
+    /// Counting passes of the ε search (0 with a given cell size).
+    pub search_passes: usize,
+    /// Full clustering passes (1 with a given cell size; at most 3).
+    pub builds: usize,
+    /// Input triangles with fewer than three distinct cells (became edges or points).
+    pub collapsed_triangles: usize,
+    /// Triangles dropped as copies of an earlier one over the same representatives.
+    pub duplicate_triangles: usize,
+    /// Triangles dropped because representatives of distinct cells coincide or are
+    /// exactly collinear.
+    pub flattened_triangles: usize,
+    /// The error (mesh units): see the module documentation.
+    pub max_error: f64,
+    /// Edges of the output with more than two triangles.
+    pub non_manifold_edges: usize,
+    /// Output vertices on a non-manifold edge or with more than one fan of triangles.
+    pub non_manifold_vertices: usize,
+    /// Output boundary edges (one triangle).
+    pub boundary_edges: usize,
+    /// Whether the input was streamed from a file.
+    pub streamed: bool,
+    /// Bytes held by the cell table, cell sums and output while clustering (not the
+    /// streamed reader's vertex positions).
+    pub working_bytes: usize,
+}
+
+/// The result of clustering.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Clustered {
+    /// The simplified mesh (compact, vertices in first-use order).
+    pub mesh: Mesh,
+    /// For every output vertex, the input vertex whose attributes it carries (empty
+    /// when streamed).
+    pub vertex_source: Vec<u32>,
+    /// What happened.
+    pub stats: ClusterStats,
+    /// Input triangles.
+    pub triangles_in: usize,
+    /// Input vertices (for a streamed STL, three per triangle).
+    pub vertices_in: usize,
+    /// The input's bounding-box diagonal (all vertices), mesh units.
+    pub bbox_diagonal: f64,
+}
+
+/// Output triangles of the first clean-up stage: three distinct cells, no repeated
+/// cell triple.
+struct Stage1 {
+    cells: Vec<[u32; 3]>,
+    groups: Vec<u32>,
+    collapsed: usize,
+    duplicates: usize,
+}
+
+impl Stage1 {
+    fn new(expected: usize) -> (Self, TripleSet) {
+        (
+            Self {
+                cells: Vec::with_capacity(expected),
+                groups: Vec::with_capacity(expected),
+                collapsed: 0,
+                duplicates: 0,
+            },
+            TripleSet::with_capacity(expected),
+        )
+    }
+
+    #[inline]
+    fn push(&mut self, set: &mut TripleSet, c: [u32; 3], group: u32) {
+        if c[0] == c[1] || c[1] == c[2] || c[0] == c[2] {
+            self.collapsed += 1;
+        } else if set.insert(c) {
+            self.cells.push(c);
+            self.groups.push(group);
+        } else {
+            self.duplicates += 1;
+        }
+    }
+}
+
+/// The grid's side for a cell count: the search variable.
+struct Search {
+    lo: [f64; 3],
+    hi: [f64; 3],
+    /// (ε, count) with count > goal (cells too small).
+    small: Option<(f64, usize)>,
+    /// (ε, count) with count ≤ goal.
+    large: Option<(f64, usize)>,
+    best: Option<(f64, usize)>,
+    passes: usize,
+}
+
+impl Search {
+    fn new(lo: [f64; 3], hi: [f64; 3]) -> Self {
+        Self {
+            lo,
+            hi,
+            small: None,
+            large: None,
+            best: None,
+            passes: 0,
+        }
+    }
+
+    /// Searches ε with `count(grid)` within `tol` of `goal`, starting at `eps0`.
+    /// Returns the best ε seen.
+    fn run(
+        &mut self,
+        goal: usize,
+        eps0: f64,
+        tol: f64,
+        mut count: impl FnMut(&Grid) -> usize,
+    ) -> f64 {
+        let extent = (0..3)
+            .map(|k| self.hi[k] - self.lo[k])
+            .fold(0.0f64, f64::max);
+        let coarsest = 2.0 * extent.max(f64::MIN_POSITIVE);
+        if goal == 0 {
+            return coarsest;
+        }
+        // Forget the bracket of a previous goal but keep what is still valid.
+        self.best = None;
+        let g = goal as f64;
+        let mut eps = eps0.clamp(f64::MIN_POSITIVE, coarsest);
+        for _ in 0..40 {
+            let grid = Grid::new(self.lo, self.hi, eps);
+            eps = grid.cell;
+            let c = count(&grid);
+            self.passes += 1;
+            let dist = |n: usize| (n as f64 - g).abs();
+            if self.best.is_none_or(|(_, b)| dist(c) < dist(b)) {
+                self.best = Some((eps, c));
+            }
+            if dist(c) <= tol * g {
+                break;
+            }
+            if c > goal {
+                if self.small.is_none_or(|(e, _)| eps > e) {
+                    self.small = Some((eps, c));
+                }
+                if let Some((e, _)) = self.large {
+                    if eps >= e {
+                        self.large = None;
+                    }
+                }
+            } else {
+                if self.large.is_none_or(|(e, _)| eps < e) {
+                    self.large = Some((eps, c));
+                }
+                if let Some((e, _)) = self.small {
+                    if eps <= e {
+                        self.small = None;
+                    }
+                }
+            }
+            let next = match (self.small, self.large) {
+                (Some((es, cs)), Some((el, cl))) => {
+                    if el / es < 1.0 + 1e-9 {
+                        break;
+                    }
+                    let (ls, ll) = (es.ln(), el.ln());
+                    let t = if cl > 0 && cs > cl {
+                        // Secant on log count against log ε.
+                        let (ys, yl) = ((cs as f64).ln(), (cl as f64).ln());
+                        ((g.ln() - ys) / (yl - ys)).clamp(0.1, 0.9)
+                    } else {
+                        0.5
+                    };
+                    (ls + t * (ll - ls)).exp()
+                }
+                (Some((es, cs)), None) => es * (cs as f64 / g).sqrt().clamp(1.05, 8.0),
+                (None, Some((el, cl))) => {
+                    if cl == 0 {
+                        el / 4.0
+                    } else {
+                        el * (cl as f64 / g).sqrt().clamp(0.125, 0.95)
+                    }
+                }
+                (None, None) => break,
+            };
+            if next == eps || !next.is_finite() {
+                break;
+            }
+            // The finest grid already gives too few triangles: stop.
+            if c <= goal && Grid::new(self.lo, self.hi, next).cell >= eps {
+                break;
+            }
+            eps = next;
+        }
+        self.best.map_or(eps, |(e, _)| e)
+    }
+}
+
+/// Clusters `mesh` to about `target` triangles (when [`ClusterOptions::cell_size`]
+/// is `None`), or with the given cell size.
+///
+/// The mesh must [validate](Mesh::validate) (the public [`crate::simplify()`] checks
+/// it first).
+///
+/// # Errors
+/// [`ClusterError::Option`] for bad options (cell size not positive, a weight
+/// stream of the wrong length, no target and no cell size).
+pub fn cluster_mesh(
+    mesh: &Mesh,
+    target: Option<usize>,
+    options: &ClusterOptions,
+) -> Result<Clustered, ClusterError> {
+    options.check(Some(mesh.positions.len()))?;
+    let diag = mesh.bbox_diagonal();
+    let Some((lo32, hi32)) = mesh.bounding_box(false) else {
+        return Ok(empty_result(mesh, options, diag));
+    };
+    let lo = lo32.map(f64::from);
+    let hi = hi32.map(f64::from);
+    let weights = corner_factors(mesh, options);
+    let builder = |grid: &Grid| build_in_memory(mesh, grid, options, weights.as_deref());
+    let mut keys = Vec::new();
+    let count = |grid: &Grid, keys: &mut Vec<u64>| count_in_memory(mesh, grid, keys);
+    let area = || total_area(mesh.triangles.len(), |t| tri_of(mesh, t));
+    let (mut out, search_passes, builds) = drive(
+        lo,
+        hi,
+        diag,
+        target,
+        options,
+        area,
+        |g| count(g, &mut keys),
+        builder,
+    );
+    out.stats.search_passes = search_passes;
+    out.stats.builds = builds;
+    Ok(Clustered {
+        triangles_in: mesh.triangles.len(),
+        vertices_in: mesh.positions.len(),
+        bbox_diagonal: diag,
+        ..out
+    })
+}
+
+/// Clusters the mesh file at `path` by streaming it twice (see the module
+/// documentation): binary or ASCII STL, binary PLY, OBJ. The target, when there is
+/// no cell size, is `target(triangle count)`.
+///
+/// # Errors
+/// [`ClusterError::Io`] naming the file and the place for anything wrong with it
+/// (including a format that cannot be streamed); [`ClusterError::Option`] for bad
+/// options, including weights that need the mesh in memory.
+pub fn cluster_file(
+    path: &Path,
+    target: impl FnOnce(usize) -> Option<usize>,
+    options: &ClusterOptions,
+) -> Result<Clustered, ClusterError> {
+    options.check(None)?;
+    // Pass 1: bounding box, count, area (in chunks, as in memory) and a sample.
+    let mut sample = Sampler::new(1 << 20);
+    let mut area = AreaSum::default();
+    let mut index = 0usize;
+    let summary = stream::for_each_triangle(path, |tri, _group| {
+        area.add(tri);
+        sample.push(index, tri);
+        index += 1;
+    })?;
+    let area = area.total();
+    let n = summary.triangles as usize;
+    let diag = summary.bbox_diagonal();
+    let vertices_in = summary.vertices as usize;
+    let Some((lo32, hi32)) = summary.bbox else {
+        let mut out = empty_result(&Mesh::default(), options, 0.0);
+        out.stats.streamed = true;
+        return Ok(out);
+    };
+    let lo = lo32.map(f64::from);
+    let hi = hi32.map(f64::from);
+    let target = target(n);
+    let scale = if sample.tris.is_empty() {
+        1.0
+    } else {
+        n as f64 / sample.tris.len() as f64
+    };
+    let mut keys = Vec::new();
+    let count = |grid: &Grid| {
+        let c = count_soup(&sample.tris, grid, &mut keys);
+        (c as f64 * scale).round() as usize
+    };
+    let mut failure: Option<IoError> = None;
+    let builder = |grid: &Grid| match build_streamed(path, grid, options, &summary) {
+        Ok(b) => b,
+        Err(e) => {
+            failure.get_or_insert(e);
+            empty_result(&Mesh::default(), options, diag)
+        }
+    };
+    let (mut out, search_passes, builds) =
+        drive(lo, hi, diag, target, options, || area, count, builder);
+    if let Some(e) = failure {
+        return Err(e.into());
+    }
+    out.stats.search_passes = search_passes;
+    out.stats.builds = builds;
+    out.stats.streamed = true;
+    Ok(Clustered {
+        triangles_in: n,
+        vertices_in,
+        bbox_diagonal: diag,
+        ..out
+    })
+}
+
+/// The search-and-build loop shared by both paths. Returns the result, the number of
+/// counting passes and of builds.
+#[allow(clippy::too_many_arguments)]
+fn drive(
+    lo: [f64; 3],
+    hi: [f64; 3],
+    diag: f64,
+    target: Option<usize>,
+    options: &ClusterOptions,
+    area: impl FnOnce() -> f64,
+    mut count: impl FnMut(&Grid) -> usize,
+    mut build: impl FnMut(&Grid) -> Clustered,
+) -> (Clustered, usize, usize) {
+    let target = match (options.cell_size, target) {
+        (Some(e), _) => {
+            let grid = Grid::new(lo, hi, e.resolve(diag));
+            return (build(&grid), 0, 1);
+        }
+        (None, Some(t)) => t,
+        (None, None) => {
+            // Not reachable through the public API (simplify always has a target);
+            // one cell per 1% of the diagonal.
+            let grid = Grid::new(lo, hi, 0.01 * diag);
+            return (build(&grid), 0, 1);
+        }
+    };
+    // About two triangles per occupied cell and ~1.7 cells per ε² of surface.
+    let a = area();
+    let eps0 = if a > 0.0 && target > 0 {
+        (3.5 * a / target as f64).sqrt()
+    } else {
+        0.01 * diag.max(f64::MIN_POSITIVE)
+    };
+    let mut search = Search::new(lo, hi);
+    let tol = options.tolerance;
+    let mut goal = target;
+    let mut best: Option<Clustered> = None;
+    let mut builds = 0;
+    let mut eps = eps0;
+    let dist = |n: usize| (n as f64 - target as f64).abs();
+    for _ in 0..3 {
+        eps = search.run(goal, eps, (0.4 * tol).min(0.02), &mut count);
+        let grid = Grid::new(lo, hi, eps);
+        let out = build(&grid);
+        builds += 1;
+        let got = out.mesh.triangles.len();
+        let better = best
+            .as_ref()
+            .is_none_or(|b| dist(got) < dist(b.mesh.triangles.len()));
+        if better {
+            best = Some(out);
+        }
+        if dist(got) <= tol * target as f64 || got == 0 {
+            break;
+        }
+        // Clean-up removed (or kept) more than the probe counted: rescale the goal.
+        let probe = search.best.map_or(goal, |(_, c)| c).max(1);
+        let next = (target as f64 * probe as f64 / got as f64).round() as usize;
+        if next == goal {
+            break;
+        }
+        goal = next;
+        search.small = None;
+        search.large = None;
+    }
+    let out = best.unwrap_or_else(|| build(&Grid::new(lo, hi, eps)));
+    (out, search.passes, builds)
+}
+
+fn empty_result(mesh: &Mesh, options: &ClusterOptions, diag: f64) -> Clustered {
+    Clustered {
+        mesh: Mesh {
+            group_names: mesh.group_names.clone(),
+            ..Mesh::default()
+        },
+        vertex_source: Vec::new(),
+        stats: ClusterStats {
+            representative: options.representative,
+            cell_size: 0.0,
+            grid: [0; 3],
+            occupied_cells: 0,
+            search_passes: 0,
+            builds: 0,
+            collapsed_triangles: mesh.triangles.len(),
+            duplicate_triangles: 0,
+            flattened_triangles: 0,
+            max_error: 0.0,
+            non_manifold_edges: 0,
+            non_manifold_vertices: 0,
+            boundary_edges: 0,
+            streamed: false,
+            working_bytes: 0,
+        },
+        triangles_in: mesh.triangles.len(),
+        vertices_in: mesh.positions.len(),
+        bbox_diagonal: diag,
+    }
+}
+
+#[inline]
+fn tri_of(mesh: &Mesh, t: usize) -> [[f32; 3]; 3] {
+    mesh.triangles[t].map(|i| mesh.positions[i as usize])
+}
+
+/// Chunk size of the deterministic area sum (both paths).
+const AREA_CHUNK: usize = 4096;
+
+#[inline]
+fn area_of(t: &[[f32; 3]; 3]) -> f64 {
+    let p = t.map(|c| c.map(f64::from));
+    let e1 = [p[1][0] - p[0][0], p[1][1] - p[0][1], p[1][2] - p[0][2]];
+    let e2 = [p[2][0] - p[0][0], p[2][1] - p[0][1], p[2][2] - p[0][2]];
+    let c = [
+        e1[1] * e2[2] - e1[2] * e2[1],
+        e1[2] * e2[0] - e1[0] * e2[2],
+        e1[0] * e2[1] - e1[1] * e2[0],
+    ];
+    0.5 * (c[0] * c[0] + c[1] * c[1] + c[2] * c[2]).sqrt()
+}
+
+/// Total area, summed per chunk of [`AREA_CHUNK`] triangles in parallel, then over
+/// chunks in order: deterministic and equal to [`AreaSum`].
+fn total_area(n: usize, tri: impl Fn(usize) -> [[f32; 3]; 3] + Sync) -> f64 {
+    let chunks: Vec<f64> = (0..n.div_ceil(AREA_CHUNK))
+        .into_par_iter()
+        .map(|c| {
+            let mut s = 0.0;
+            for t in c * AREA_CHUNK..((c + 1) * AREA_CHUNK).min(n) {
+                s += area_of(&tri(t));
+            }
+            s
+        })
+        .collect();
+    chunks.iter().sum()
+}
+
+/// The streaming twin of [`total_area`].
+#[derive(Default)]
+struct AreaSum {
+    chunks: f64,
+    current: f64,
+    in_chunk: usize,
+}
+
+impl AreaSum {
+    fn add(&mut self, t: &[[f32; 3]; 3]) {
+        self.current += area_of(t);
+        self.in_chunk += 1;
+        if self.in_chunk == AREA_CHUNK {
+            self.flush();
+        }
+    }
+    fn flush(&mut self) {
+        self.chunks += self.current;
+        self.current = 0.0;
+        self.in_chunk = 0;
+    }
+    fn total(mut self) -> f64 {
+        if self.in_chunk > 0 {
+            self.flush();
+        }
+        self.chunks
+    }
+}
+
+/// A deterministic stride sample of at most `cap` triangles: every `stride`-th; when
+/// full, every other one is dropped and the stride doubles.
+struct Sampler {
+    tris: Vec<[[f32; 3]; 3]>,
+    stride: usize,
+    cap: usize,
+}
+
+impl Sampler {
+    fn new(cap: usize) -> Self {
+        Self {
+            tris: Vec::new(),
+            stride: 1,
+            cap,
+        }
+    }
+    fn push(&mut self, index: usize, t: &[[f32; 3]; 3]) {
+        if index % self.stride != 0 {
+            return;
+        }
+        if self.tris.len() == self.cap {
+            let mut k = 0;
+            self.tris.retain(|_| {
+                k += 1;
+                (k - 1) % 2 == 0
+            });
+            self.stride *= 2;
+            if index % self.stride != 0 {
+                return;
+            }
+        }
+        self.tris.push(*t);
+    }
+}
+
+/// Triangles of `mesh` with three distinct cells on `grid` (parallel).
+fn count_in_memory(mesh: &Mesh, grid: &Grid, keys: &mut Vec<u64>) -> usize {
+    mesh.positions
+        .par_iter()
+        .with_min_len(4096)
+        .map(|&p| grid.key(p))
+        .collect_into_vec(keys);
+    let keys = &*keys;
+    mesh.triangles
+        .par_iter()
+        .with_min_len(4096)
+        .filter(|t| {
+            let [a, b, c] = t.map(|i| keys[i as usize]);
+            a != b && b != c && a != c
+        })
+        .count()
+}
+
+/// Triangles of a soup with three distinct cells on `grid` (parallel).
+fn count_soup(tris: &[[[f32; 3]; 3]], grid: &Grid, _keys: &mut Vec<u64>) -> usize {
+    tris.par_iter()
+        .with_min_len(4096)
+        .filter(|t| {
+            let [a, b, c] = t.map(|p| grid.key(p));
+            a != b && b != c && a != c
+        })
+        .count()
+}
+
+/// Per-vertex factors of the weighted representative (`None`: all 1).
+fn corner_factors(mesh: &Mesh, options: &ClusterOptions) -> Option<Vec<f32>> {
+    if options.representative != Representative::Weighted {
+        return None;
+    }
+    match &options.weights {
+        ClusterWeights::Area => None,
+        ClusterWeights::PerVertex(w) => Some(w.clone()),
+        ClusterWeights::Feature => Some(feature_factors(mesh)),
+    }
+}
+
+/// `1 + 8 (1 − cos θ)` per vertex, `θ` the largest angle between the point's mean
+/// normal and its triangles' normals (points welded exactly).
+fn feature_factors(mesh: &Mesh) -> Vec<f32> {
+    let weld = Weld::exact(&mesh.positions);
+    let np = weld.point_count();
+    let normal = |t: &[u32; 3]| {
+        let p = t.map(|i| mesh.positions[i as usize].map(f64::from));
+        let e1 = [p[1][0] - p[0][0], p[1][1] - p[0][1], p[1][2] - p[0][2]];
+        let e2 = [p[2][0] - p[0][0], p[2][1] - p[0][1], p[2][2] - p[0][2]];
+        [
+            e1[1] * e2[2] - e1[2] * e2[1],
+            e1[2] * e2[0] - e1[0] * e2[2],
+            e1[0] * e2[1] - e1[1] * e2[0],
+        ]
+    };
+    let mut sum = vec![[0.0f64; 3]; np];
+    for t in &mesh.triangles {
+        let n = normal(t);
+        for &v in t {
+            let s = &mut sum[weld.point_of[v as usize] as usize];
+            for k in 0..3 {
+                s[k] += n[k];
+            }
+        }
+    }
+    let unit = |v: [f64; 3]| {
+        let l = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
+        if l > 0.0 {
+            Some(v.map(|x| x / l))
+        } else {
+            None
+        }
+    };
+    let mut min_cos = vec![1.0f64; np];
+    for t in &mesh.triangles {
+        let Some(n) = unit(normal(t)) else { continue };
+        for &v in t {
+            let p = weld.point_of[v as usize] as usize;
+            if let Some(m) = unit(sum[p]) {
+                let c = n[0] * m[0] + n[1] * m[1] + n[2] * m[2];
+                min_cos[p] = min_cos[p].min(c);
+            }
+        }
+    }
+    weld.point_of
+        .iter()
+        .map(|&p| (1.0 + 8.0 * (1.0 - min_cos[p as usize].clamp(-1.0, 1.0))) as f32)
+        .collect()
+}
+
+/// The in-memory build: cells of the vertices, parallel accumulation over ranges of
+/// cells, then the shared finish.
+fn build_in_memory(
+    mesh: &Mesh,
+    grid: &Grid,
+    options: &ClusterOptions,
+    factors: Option<&[f32]>,
+) -> Clustered {
+    let how = options.representative;
+    // Cells of referenced vertices, ids in order of first use by a triangle corner
+    // (as the streaming path numbers them; only the numbering differs otherwise).
+    let keys: Vec<u64> = mesh
+        .positions
+        .par_iter()
+        .with_min_len(4096)
+        .map(|&p| grid.key(p))
+        .collect();
+    let mut table = CellTable::with_capacity((mesh.triangles.len() / 8).max(16));
+    let mut vcell = vec![u32::MAX; mesh.positions.len()];
+    let (mut stage1, mut set) = Stage1::new(mesh.triangles.len() / 4);
+    for (t, tri) in mesh.triangles.iter().enumerate() {
+        let mut c = [0u32; 3];
+        for k in 0..3 {
+            let v = tri[k] as usize;
+            if vcell[v] == u32::MAX {
+                vcell[v] = table.id(keys[v]);
+            }
+            c[k] = vcell[v];
+        }
+        stage1.push(&mut set, c, mesh.group(t));
+    }
+    drop(set);
+    let cells = table.len();
+    let mut accs = vec![Acc::default(); cells];
+    let shards = rayon::current_num_threads().clamp(1, 64);
+    let per = cells.div_ceil(shards).max(1);
+    let quadric = how == Representative::Quadric;
+    let vcell = &vcell;
+    let table_ref = &table;
+    accs.par_chunks_mut(per)
+        .enumerate()
+        .for_each(|(s, part)| {
+            let start = (s * per) as u32;
+            let end = start + part.len() as u32;
+            let owned = |c: u32| c >= start && c < end;
+            for tri in &mesh.triangles {
+                let c = tri.map(|v| vcell[v as usize]);
+                if !(owned(c[0]) || owned(c[1]) || owned(c[2])) {
+                    continue;
+                }
+                let corners = tri.map(|v| mesh.positions[v as usize]);
+                let t = Prepared::new(&corners, grid.origin);
+                let w = corner_weights(&t, how, |k| {
+                    factors.map_or(1.0, |f| f64::from(f[tri[k] as usize]))
+                });
+                add_to_cells(&t, c, w, quadric, grid, table_ref, part, start);
+            }
+        });
+    let mut out = finish(grid, &table, &accs, stage1, how, mesh.group_names.clone());
+    // Attributes: per output vertex the closest input vertex of its cells.
+    let n_out = out.mesh.positions.len();
+    let mut best = vec![(f64::INFINITY, u32::MAX); n_out];
+    for (v, &c) in vcell.iter().enumerate() {
+        if c == u32::MAX {
+            continue;
+        }
+        let o = out.vertex_of_cell[c as usize];
+        if o == u32::MAX {
+            continue;
+        }
+        let r = out.mesh.positions[o as usize];
+        let p = mesh.positions[v];
+        let d: f64 = (0..3)
+            .map(|k| {
+                let x = f64::from(p[k]) - f64::from(r[k]);
+                x * x
+            })
+            .sum();
+        let b = &mut best[o as usize];
+        if d < b.0 {
+            *b = (d, v as u32);
+        }
+    }
+    let source: Vec<u32> = best.iter().map(|b| b.1).collect();
+    out.mesh.attributes = mesh.attributes.gather(&source);
+    out.stats.working_bytes += vcell.len() * 4 + keys.len() * 8;
+    Clustered {
+        mesh: out.mesh,
+        vertex_source: source,
+        stats: out.stats,
+        triangles_in: mesh.triangles.len(),
+        vertices_in: mesh.positions.len(),
+        bbox_diagonal: 0.0,
+    }
+}
+
+/// The streaming build: one pass over the file.
+fn build_streamed(
+    path: &Path,
+    grid: &Grid,
+    options: &ClusterOptions,
+    summary: &StreamSummary,
+) -> Result<Clustered, IoError> {
+    let how = options.representative;
+    let quadric = how == Representative::Quadric;
+    let mut table = CellTable::with_capacity(1 << 12);
+    let mut accs: Vec<Acc> = Vec::new();
+    let (mut stage1, mut set) = Stage1::new(1 << 12);
+    let s = stream::for_each_triangle(path, |tri, group| {
+        let c = tri.map(|p| {
+            let id = table.id(grid.key(p));
+            if id as usize == accs.len() {
+                accs.push(Acc::default());
+            }
+            id
+        });
+        stage1.push(&mut set, c, group);
+        let t = Prepared::new(tri, grid.origin);
+        let w = corner_weights(&t, how, |_| 1.0);
+        add_to_cells(&t, c, w, quadric, grid, &table, &mut accs, 0);
+    })?;
+    let _ = summary;
+    let set_bytes = set.bytes();
+    drop(set);
+    let mut out = finish(grid, &table, &accs, stage1, how, s.group_names);
+    out.stats.working_bytes += set_bytes;
+    Ok(Clustered {
+        mesh: out.mesh,
+        vertex_source: Vec::new(),
+        stats: out.stats,
+        triangles_in: s.triangles as usize,
+        vertices_in: s.vertices as usize,
+        bbox_diagonal: 0.0,
+    })
+}
+
+/// Corner weights of the representative's mean.
+#[inline]
+fn corner_weights(t: &Prepared, how: Representative, factor: impl Fn(usize) -> f64) -> [f64; 3] {
+    match how {
+        Representative::Average => [1.0; 3],
+        Representative::Quadric => [t.area / 3.0; 3],
+        Representative::Weighted => std::array::from_fn(|k| t.area / 3.0 * factor(k)),
+    }
+}
+
+/// Adds triangle `t` with corner cells `c` to each distinct cell among
+/// `start .. start + accs.len()` (the in-memory workers own a range of cells).
+#[inline]
+#[allow(clippy::too_many_arguments)]
+fn add_to_cells(
+    t: &Prepared,
+    c: [u32; 3],
+    w: [f64; 3],
+    quadric: bool,
+    grid: &Grid,
+    table: &CellTable,
+    accs: &mut [Acc],
+    start: u32,
+) {
+    for k in 0..3 {
+        if (k >= 1 && c[k] == c[0]) || (k == 2 && c[2] == c[1]) {
+            continue;
+        }
+        if let Some(a) = c[k].checked_sub(start).and_then(|i| accs.get_mut(i as usize)) {
+            let mask = [c[0] == c[k], c[1] == c[k], c[2] == c[k]];
+            let corner = grid.corner(grid::unpack(table.key(c[k])));
+            contribute(a, corner, t, mask, w, quadric);
+        }
+    }
+}
+
+struct Finished {
+    mesh: Mesh,
+    stats: ClusterStats,
+    /// Output vertex of each cell (`u32::MAX` when unused).
+    vertex_of_cell: Vec<u32>,
+}
+
+/// Representatives, the second clean-up (coinciding representatives, zero area,
+/// duplicates over welded positions) and compaction: shared by both paths.
+fn finish(
+    grid: &Grid,
+    table: &CellTable,
+    accs: &[Acc],
+    stage1: Stage1,
+    how: Representative,
+    group_names: Vec<String>,
+) -> Finished {
+    let reps: Vec<([f32; 3], Option<f64>)> = accs
+        .par_iter()
+        .with_min_len(1024)
+        .enumerate()
+        .map(|(i, a)| {
+            let corner = grid.corner(grid::unpack(table.key(i as u32)));
+            let (x, err) = representative(a, corner, grid.cell, how);
+            let p: [f32; 3] = std::array::from_fn(|k| (grid.origin[k] + corner[k] + x[k]) as f32);
+            (p, err)
+        })
+        .collect();
+    let max_error = if how == Representative::Quadric {
+        reps.iter().filter_map(|r| r.1).fold(0.0f64, f64::max)
+    } else {
+        grid.cell * 3f64.sqrt()
+    };
+    let positions: Vec<[f32; 3]> = reps.iter().map(|r| r.0).collect();
+    let weld = Weld::exact(&positions);
+    let mut set = TripleSet::with_capacity(stage1.cells.len());
+    let mut vertex_of_point = vec![u32::MAX; weld.point_count()];
+    let mut out_positions = Vec::new();
+    let mut triangles = Vec::with_capacity(stage1.cells.len());
+    let mut groups = Vec::with_capacity(stage1.cells.len());
+    let mut flattened = 0;
+    let mut duplicates = stage1.duplicates;
+    for (c, &g) in stage1.cells.iter().zip(&stage1.groups) {
+        let p = c.map(|x| weld.point_of[x as usize]);
+        if p[0] == p[1] || p[1] == p[2] || p[0] == p[2] {
+            flattened += 1;
+            continue;
+        }
+        let pos = c.map(|x| positions[x as usize]);
+        if area_of(&pos) == 0.0 {
+            flattened += 1;
+            continue;
+        }
+        if !set.insert(p) {
+            duplicates += 1;
+            continue;
+        }
+        let t = p.map(|q| {
+            let v = &mut vertex_of_point[q as usize];
+            if *v == u32::MAX {
+                *v = out_positions.len() as u32;
+                out_positions.push(positions[weld.representative[q as usize] as usize]);
+            }
+            *v
+        });
+        triangles.push(t);
+        groups.push(g);
+    }
+    let working_bytes = table.bytes()
+        + accs.len() * std::mem::size_of::<Acc>()
+        + reps.len() * 32
+        + stage1.cells.capacity() * 16
+        + set.bytes();
+    let vertex_of_cell: Vec<u32> = weld
+        .point_of
+        .iter()
+        .map(|&p| vertex_of_point[p as usize])
+        .collect();
+    let topo = TopologyStats::of(&triangles, out_positions.len(), |v| {
+        out_positions[v as usize]
+    });
+    let has_groups = !group_names.is_empty() || groups.iter().any(|&g| g != 0);
+    let mesh = Mesh {
+        positions: out_positions,
+        triangles,
+        attributes: Default::default(),
+        groups: has_groups.then_some(groups),
+        group_names,
+    };
+    Finished {
+        stats: ClusterStats {
+            representative: how,
+            cell_size: grid.cell,
+            grid: grid.dims,
+            occupied_cells: accs.len(),
+            search_passes: 0,
+            builds: 1,
+            collapsed_triangles: stage1.collapsed,
+            duplicate_triangles: duplicates,
+            flattened_triangles: flattened,
+            max_error,
+            non_manifold_edges: topo.non_manifold_edges,
+            non_manifold_vertices: topo.non_manifold_vertices,
+            boundary_edges: topo.boundary_edges,
+            streamed: false,
+            working_bytes,
+        },
+        mesh,
+        vertex_of_cell,
+    }
+}
+
+#[cfg(test)]
+mod tests;

@@ -1,0 +1,312 @@
+use super::*;
+use crate::io::{write_mesh, WriteOptions};
+use crate::mesh::generate;
+use crate::mesh::stats::TopologyStats;
+use proptest::prelude::*;
+
+/// The acceptance invariants: indices valid, no degenerate (repeated point or zero
+/// area) and no duplicate triangles (over exactly welded positions).
+fn assert_clean(m: &Mesh) {
+    m.validate().expect("valid output");
+    let weld = Weld::exact(&m.positions);
+    let welded = weld.map_triangles(&m.triangles);
+    let s = TopologyStats::of(&welded, weld.point_count(), |p| {
+        m.positions[weld.representative[p as usize] as usize]
+    });
+    assert_eq!(s.degenerate_triangles, 0, "degenerate triangles");
+    assert_eq!(s.duplicate_triangles, 0, "duplicate triangles");
+    if let Some(g) = &m.groups {
+        assert_eq!(g.len(), m.triangles.len());
+    }
+}
+
+fn cluster(m: &Mesh, target: usize) -> Clustered {
+    cluster_mesh(m, Some(target), &ClusterOptions::default()).expect("clusters")
+}
+
+#[test]
+fn target_counts_within_five_percent() {
+    let sphere = generate::icosphere(5); // 20480 triangles
+    let torus = generate::torus(160, 64, 1.0, 0.3);
+    for m in [&sphere, &torus] {
+        for target in [200, 1000, 2000, 5000] {
+            for how in [
+                Representative::Quadric,
+                Representative::Average,
+                Representative::Weighted,
+            ] {
+                let o = ClusterOptions::default().with_representative(how);
+                let c = cluster_mesh(m, Some(target), &o).unwrap();
+                assert_clean(&c.mesh);
+                let n = c.mesh.triangles.len() as f64;
+                assert!(
+                    (n - target as f64).abs() <= 0.05 * target as f64,
+                    "{how:?}: {n} for target {target}"
+                );
+                assert!(c.stats.builds <= 3 && c.stats.search_passes > 0);
+            }
+        }
+    }
+}
+
+/// Every representative lies in its cell, so no vertex is farther than the cell
+/// diagonal from the vertices it replaces: the one-sided distance output → input is
+/// below `ε√3` plus the distance of a vertex to the surface (0 here: representatives
+/// are checked against the input's vertices of their cells via `vertex_source`).
+#[test]
+fn representatives_stay_in_their_cells() {
+    let m = generate::torus(80, 40, 1.0, 0.3);
+    for how in [
+        Representative::Quadric,
+        Representative::Average,
+        Representative::Weighted,
+    ] {
+        let o = ClusterOptions::default()
+            .with_cell_size(Distance::Relative(0.03))
+            .with_representative(how);
+        let c = cluster_mesh(&m, None, &o).unwrap();
+        assert_clean(&c.mesh);
+        let e = c.stats.cell_size;
+        let (lo, _) = m.bounding_box(false).unwrap();
+        for (o, &src) in c.vertex_source.iter().enumerate() {
+            let p = c.mesh.positions[o];
+            let q = m.positions[src as usize];
+            for k in 0..3 {
+                // Same cell: the same floor((x − lo)/ε), up to f32 rounding.
+                let cp = ((f64::from(p[k]) - f64::from(lo[k])) / e).floor();
+                let cq = ((f64::from(q[k]) - f64::from(lo[k])) / e).floor();
+                assert!((cp - cq).abs() <= 1.0, "{how:?} vertex {o}");
+                assert!(
+                    (f64::from(p[k]) - f64::from(q[k])).abs() <= e * (1.0 + 1e-6),
+                    "{how:?} vertex {o}"
+                );
+            }
+        }
+    }
+}
+
+/// A flat 20×20 grid (800 triangles) in z = 0.25: quadric representatives stay on
+/// the plane, so every output vertex has z = 0.25 exactly (to f32).
+#[test]
+fn flat_surfaces_stay_flat() {
+    let m = generate::grid(20, 20, |_, _| 0.25);
+    let c = cluster(&m, 100);
+    assert_clean(&c.mesh);
+    assert!(c.mesh.positions.iter().all(|p| (p[2] - 0.25).abs() < 1e-6));
+    assert!(c.stats.max_error < 1e-6);
+}
+
+/// Two triangles of a unit square split by its diagonal:
+/// ```text
+///  3 ─── 2
+///  │   ╱ │     cell side 2: one cell, both triangles collapse to a point;
+///  │ ╱   │     cell side 0.6: corners in four cells, nothing merges.
+///  0 ─── 1
+/// ```
+#[test]
+fn unit_square_collapses_or_survives() {
+    let m = Mesh::from_triangles(
+        vec![[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [1.0, 1.0, 0.0], [0.0, 1.0, 0.0]],
+        vec![[0, 1, 2], [0, 2, 3]],
+    );
+    let o = ClusterOptions::default().with_cell_size(Distance::Absolute(2.0));
+    let c = cluster_mesh(&m, None, &o).unwrap();
+    assert!(c.mesh.triangles.is_empty());
+    assert_eq!(c.stats.collapsed_triangles, 2);
+    let o = ClusterOptions::default().with_cell_size(Distance::Absolute(0.6));
+    let c = cluster_mesh(&m, None, &o).unwrap();
+    assert_eq!(c.mesh.triangles.len(), 2);
+    assert_eq!(c.mesh.positions, vec![m.positions[0], m.positions[1], m.positions[2], m.positions[3]]);
+}
+
+/// A fin: two triangles over the same three cells (one of each winding) keep one.
+#[test]
+fn duplicate_cell_triples_are_removed() {
+    let m = Mesh::from_triangles(
+        vec![
+            [0.0, 0.0, 0.0],
+            [4.0, 0.0, 0.0],
+            [0.0, 4.0, 0.0],
+            [0.1, 0.1, 0.0],
+            [4.1, 0.1, 0.0],
+            [0.1, 4.1, 0.0],
+        ],
+        vec![[0, 1, 2], [3, 5, 4]],
+    );
+    let o = ClusterOptions::default().with_cell_size(Distance::Absolute(1.0));
+    let c = cluster_mesh(&m, None, &o).unwrap();
+    assert_eq!(c.mesh.triangles.len(), 1);
+    assert_eq!(c.stats.duplicate_triangles, 1);
+    assert_clean(&c.mesh);
+}
+
+#[test]
+fn groups_and_attributes_are_carried() {
+    let mut m = generate::icosphere(4);
+    let n = m.triangles.len() as u32;
+    m.groups = Some((0..n).map(|t| u32::from(t >= n / 2)).collect());
+    m.group_names = vec!["red".into(), "blue".into()];
+    m.attributes.uv0 = Some(m.positions.iter().map(|p| [p[0], p[1]]).collect());
+    let c = cluster(&m, 500);
+    assert_clean(&c.mesh);
+    assert_eq!(c.mesh.group_names, m.group_names);
+    let g = c.mesh.groups.as_ref().unwrap();
+    assert!(g.contains(&0) && g.contains(&1));
+    let uv = c.mesh.attributes.uv0.as_ref().unwrap();
+    for (o, &src) in c.vertex_source.iter().enumerate() {
+        assert_eq!(uv[o], m.attributes.uv0.as_ref().unwrap()[src as usize]);
+    }
+}
+
+#[test]
+fn weights_options_are_checked() {
+    let m = generate::icosphere(2);
+    let bad = ClusterOptions::default()
+        .with_representative(Representative::Weighted)
+        .with_weights(ClusterWeights::PerVertex(vec![1.0; 3]));
+    assert!(matches!(
+        cluster_mesh(&m, Some(10), &bad),
+        Err(ClusterError::Option(_))
+    ));
+    let nan = ClusterOptions::default()
+        .with_representative(Representative::Weighted)
+        .with_weights(ClusterWeights::PerVertex(vec![f32::NAN; m.positions.len()]));
+    assert!(cluster_mesh(&m, Some(10), &nan).is_err());
+    let zero = ClusterOptions::default().with_cell_size(Distance::Relative(0.0));
+    assert!(cluster_mesh(&m, Some(10), &zero).is_err());
+    // Feature and per-vertex weights both work in memory and move representatives.
+    let feature = ClusterOptions::default()
+        .with_representative(Representative::Weighted)
+        .with_weights(ClusterWeights::Feature);
+    let cube_like = generate::cylinder(32, 8, 1.0, true);
+    let c = cluster_mesh(&cube_like, Some(100), &feature).unwrap();
+    assert_clean(&c.mesh);
+    let heavy: Vec<f32> = (0..m.positions.len()).map(|i| (i % 7) as f32).collect();
+    let o = ClusterOptions::default()
+        .with_representative(Representative::Weighted)
+        .with_weights(ClusterWeights::PerVertex(heavy));
+    let a = cluster_mesh(&m, Some(80), &o).unwrap();
+    let b = cluster_mesh(
+        &m,
+        Some(80),
+        &ClusterOptions::default().with_representative(Representative::Weighted),
+    )
+    .unwrap();
+    assert_ne!(a.mesh.positions, b.mesh.positions);
+}
+
+#[test]
+fn empty_and_degenerate_inputs() {
+    let empty = Mesh::default();
+    let c = cluster(&empty, 10);
+    assert!(c.mesh.triangles.is_empty());
+    // All vertices at one point: one cell, every triangle collapses.
+    let point = Mesh::from_triangles(vec![[1.0; 3]; 3], vec![[0, 1, 2], [0, 1, 2]]);
+    let c = cluster(&point, 1);
+    assert!(c.mesh.triangles.is_empty());
+    // Unreferenced vertices only.
+    let loose = Mesh::from_triangles(vec![[0.0; 3], [1.0; 3]], vec![]);
+    assert!(cluster(&loose, 5).mesh.triangles.is_empty());
+}
+
+/// The same result with 1 and 3 worker threads (accumulation order is per cell).
+#[test]
+fn thread_count_does_not_change_the_result() {
+    let m = generate::torus(120, 50, 1.0, 0.35);
+    let run = |threads: usize| {
+        rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap()
+            .install(|| cluster(&m, 1500))
+    };
+    let a = run(1);
+    let b = run(3);
+    assert_eq!(a.mesh, b.mesh);
+    assert_eq!(a.stats.max_error.to_bits(), b.stats.max_error.to_bits());
+}
+
+/// The streaming path on a file gives the mesh the in-memory path gives on the same
+/// file read into memory: binary and ASCII STL, binary PLY, OBJ; with a cell size
+/// and with a target count (the file is small, so the search sample is every
+/// triangle and the searches agree too).
+#[test]
+fn streaming_equals_in_memory() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut m = generate::torus(90, 40, 1.0, 0.3);
+    let n = m.triangles.len() as u32;
+    m.groups = Some((0..n).map(|t| (t / 500) % 3).collect());
+    m.group_names = vec!["a".into(), "b".into(), "c".into()];
+    for (name, ascii) in [
+        ("m.ply", false),
+        ("m.stl", false),
+        ("m.stl", true),
+        ("m.obj", false),
+    ] {
+        let path = dir.path().join(name);
+        write_mesh(&path, &m, &WriteOptions::default().with_ascii(ascii)).unwrap();
+        let read = crate::read_mesh(&path).unwrap();
+        for how in [Representative::Quadric, Representative::Average] {
+            for cell in [Some(Distance::Relative(0.02)), None] {
+                let mut o = ClusterOptions::default().with_representative(how);
+                o.cell_size = cell;
+                let mem = cluster_mesh(&read, Some(700), &o).unwrap();
+                let st = cluster_file(&path, |_| Some(700), &o).unwrap();
+                let ctx = format!("{name} ascii={ascii} {how:?} {cell:?}");
+                assert_eq!(mem.mesh.positions, st.mesh.positions, "{ctx}");
+                assert_eq!(mem.mesh.triangles, st.mesh.triangles, "{ctx}");
+                assert_eq!(mem.mesh.groups, st.mesh.groups, "{ctx}");
+                assert_eq!(mem.stats.cell_size, st.stats.cell_size, "{ctx}");
+                assert!(st.stats.streamed);
+                assert_clean(&st.mesh);
+            }
+        }
+    }
+}
+
+#[test]
+fn streaming_refuses_in_memory_weights() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("m.stl");
+    write_mesh(&path, &generate::icosphere(2), &WriteOptions::default()).unwrap();
+    let o = ClusterOptions::default()
+        .with_representative(Representative::Weighted)
+        .with_weights(ClusterWeights::Feature);
+    assert!(matches!(
+        cluster_file(&path, |_| Some(10), &o),
+        Err(ClusterError::Option(_))
+    ));
+    let missing = dir.path().join("none.stl");
+    let e = cluster_file(&missing, |_| Some(10), &ClusterOptions::default()).unwrap_err();
+    assert!(e.to_string().contains("none.stl"));
+}
+
+fn arb_mesh() -> impl Strategy<Value = Mesh> {
+    (4usize..40).prop_flat_map(|nv| {
+        (
+            prop::collection::vec(prop::array::uniform3(-10.0f32..10.0), nv),
+            prop::collection::vec(prop::array::uniform3(0..nv as u32), 1..120),
+        )
+            .prop_map(|(p, t)| Mesh::from_triangles(p, t))
+    })
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(64))]
+
+    /// Random soups (repeated indices, duplicates, non-manifold): the output is
+    /// always clean, and the search never needs more than three builds.
+    #[test]
+    fn random_meshes_give_clean_output(m in arb_mesh(), cell in 0.05f64..2.0, target in 0usize..100) {
+        let o = ClusterOptions::default().with_cell_size(Distance::Absolute(cell));
+        let c = cluster_mesh(&m, None, &o).unwrap();
+        assert_clean(&c.mesh);
+        prop_assert!(c.mesh.triangles.len() <= m.triangles.len());
+        for how in [Representative::Quadric, Representative::Average] {
+            let o = ClusterOptions::default().with_representative(how);
+            let c = cluster_mesh(&m, Some(target), &o).unwrap();
+            assert_clean(&c.mesh);
+            prop_assert!(c.stats.builds <= 3);
+        }
+    }
+}

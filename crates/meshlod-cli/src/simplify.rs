@@ -1,5 +1,7 @@
 //! `meshlod simplify IN -o OUT [--ratio R | --triangles N] [--max-error E]
-//! [--method qem] [--lock-boundary] [--pair-threshold T] [--json]`.
+//! [--method qem|cluster] [--lock-boundary] [--pair-threshold T] [--json]`;
+//! vertex clustering adds `[--cell-size E] [--representative quadric|average|weighted]
+//! [--stream]`.
 //!
 //! Reads with `meshlod::io::read_scene`, simplifies, writes with `write_scene`. A glTF
 //! input written back as glTF keeps its scene: each part (glTF mesh) is simplified
@@ -17,7 +19,10 @@ use meshlod::collapse::CollapseRecord;
 use meshlod::decimate::Observer;
 use meshlod::io::{read_scene, write_scene, Format, Scene, WriteOptions};
 use meshlod::metrics::{self, Distances, SamplingOptions};
-use meshlod::simplify::{simplify_observed, Distance, Method, SimplifyOptions, StopReason};
+use meshlod::decimate::cluster::{ClusterOptions, ClusterStats, Representative};
+use meshlod::simplify::{
+    simplify_observed, simplify_stream, Distance, Method, SimplifyOptions, StopReason,
+};
 use serde::Serialize;
 use std::io::IsTerminal;
 use std::path::PathBuf;
@@ -77,6 +82,29 @@ pub struct SimplifyArgs {
     /// --absolute) and `measure` (both directions, absolute units).
     #[arg(long)]
     pub measure: bool,
+    /// Cluster cell side (--method cluster): a fraction of the bounding-box diagonal,
+    /// or mesh units with --absolute. Overrides --ratio/--triangles.
+    #[arg(long, value_name = "E")]
+    pub cell_size: Option<f64>,
+    /// Cluster representative (--method cluster).
+    #[arg(long, value_enum, default_value_t = RepresentativeArg::Quadric)]
+    pub representative: RepresentativeArg,
+    /// Stream the input triangle by triangle (--method cluster; STL, binary PLY, OBJ):
+    /// memory proportional to the occupied cells, the file is read twice, attributes
+    /// are not carried.
+    #[arg(long)]
+    pub stream: bool,
+}
+
+/// `--representative` values.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum RepresentativeArg {
+    /// Minimiser of the cell's plane quadrics (Lindstrom 2000).
+    Quadric,
+    /// Mean of the cell's triangle corners.
+    Average,
+    /// Area-weighted mean.
+    Weighted,
 }
 
 /// `--method` values.
@@ -84,6 +112,8 @@ pub struct SimplifyArgs {
 pub enum MethodArg {
     /// Quadric error metric edge collapse (Garland & Heckbert).
     Qem,
+    /// Vertex clustering on a uniform grid (Rossignac & Borrel; Lindstrom).
+    Cluster,
 }
 
 /// The JSON report.
@@ -120,6 +150,15 @@ struct CliReport {
     /// Full measurement (with --measure), absolute units.
     #[serde(skip_serializing_if = "Option::is_none")]
     measure: Option<Distances>,
+    /// Non-manifold edges of the result (--method cluster).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    non_manifold_edges: Option<usize>,
+    /// Non-manifold vertices of the result (--method cluster).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    non_manifold_vertices: Option<usize>,
+    /// Clustering details (--method cluster, single mesh).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    cluster: Option<ClusterStats>,
 }
 
 /// Progress bar on stderr, advanced by removed triangles.
@@ -153,7 +192,25 @@ fn options(args: &SimplifyArgs) -> Result<SimplifyOptions> {
     };
     let mut o = SimplifyOptions::default().with_method(match args.method {
         MethodArg::Qem => Method::Qem,
+        MethodArg::Cluster => Method::Cluster,
     });
+    if args.method != MethodArg::Cluster
+        && (args.stream || args.cell_size.is_some() || args.representative != RepresentativeArg::Quadric)
+    {
+        bail!("--stream, --cell-size and --representative need --method cluster");
+    }
+    let mut c = ClusterOptions::default().with_representative(match args.representative {
+        RepresentativeArg::Quadric => Representative::Quadric,
+        RepresentativeArg::Average => Representative::Average,
+        RepresentativeArg::Weighted => Representative::Weighted,
+    });
+    if let Some(e) = args.cell_size {
+        if !(e > 0.0 && e.is_finite()) {
+            bail!("--cell-size {e} is not a positive distance");
+        }
+        c = c.with_cell_size(dist(e));
+    }
+    o = o.with_cluster(c);
     if let Some(r) = args.ratio {
         if !(0.0..=1.0).contains(&r) {
             bail!("--ratio {r} is not in [0, 1]");
@@ -187,6 +244,9 @@ fn options(args: &SimplifyArgs) -> Result<SimplifyOptions> {
 /// Reading, option, simplification or writing errors, naming the file.
 pub fn run(args: &SimplifyArgs) -> Result<()> {
     let opts = options(args)?;
+    if args.stream {
+        return run_stream(args, &opts);
+    }
     let t0 = Instant::now();
     let scene = read_scene(&args.input)?;
     let read_seconds = t0.elapsed().as_secs_f64();
@@ -231,6 +291,7 @@ pub fn run(args: &SimplifyArgs) -> Result<()> {
             non_edge: r.non_edge_contractions,
             degenerate: r.degenerate_removed,
             duplicate: r.duplicate_removed,
+            cluster: r.cluster,
         };
         let mut out = Scene::from_mesh(s.mesh);
         out.material_libraries = scene.material_libraries.clone();
@@ -253,6 +314,56 @@ pub fn run(args: &SimplifyArgs) -> Result<()> {
             &SamplingOptions::default(),
         )
     });
+    report(args, &opts, agg, measure, read_seconds, write_seconds)
+}
+
+/// `--stream`: cluster the file without loading it (read twice), write, report.
+fn run_stream(args: &SimplifyArgs, opts: &SimplifyOptions) -> Result<()> {
+    let s = simplify_stream(&args.input, opts)?;
+    let r = s.report;
+    let agg = Aggregate {
+        parts: 1,
+        triangles_in: r.triangles_in,
+        vertices_in: r.vertices_in,
+        target_triangles: r.target_triangles,
+        triangles_out: r.triangles_out,
+        vertices_out: r.vertices_out,
+        error_absolute: r.error_absolute,
+        diag: r.bbox_diagonal,
+        stop_reason: r.stop_reason,
+        stop_detail: r.stop_detail,
+        seconds: r.seconds,
+        collapses: r.collapses,
+        non_edge: r.non_edge_contractions,
+        degenerate: r.degenerate_removed,
+        duplicate: r.duplicate_removed,
+        cluster: r.cluster,
+    };
+    let t1 = Instant::now();
+    write_scene(
+        &args.output,
+        &Scene::from_mesh(s.mesh.clone()),
+        &WriteOptions::default().with_ascii(args.ascii),
+    )?;
+    let write_seconds = t1.elapsed().as_secs_f64();
+    // Measuring needs the input in memory.
+    let measure = if args.measure {
+        let input = read_scene(&args.input)?.flatten();
+        Some(metrics::hausdorff(&input, &s.mesh, &SamplingOptions::default()))
+    } else {
+        None
+    };
+    report(args, opts, agg, measure, 0.0, write_seconds)
+}
+
+fn report(
+    args: &SimplifyArgs,
+    opts: &SimplifyOptions,
+    agg: Aggregate,
+    measure: Option<Distances>,
+    read_seconds: f64,
+    write_seconds: f64,
+) -> Result<()> {
 
     let rel = if agg.diag > 0.0 {
         agg.error_absolute / agg.diag
@@ -299,6 +410,9 @@ pub fn run(args: &SimplifyArgs) -> Result<()> {
             }
         }),
         measure,
+        non_manifold_edges: agg.cluster.as_ref().map(|c| c.non_manifold_edges),
+        non_manifold_vertices: agg.cluster.as_ref().map(|c| c.non_manifold_vertices),
+        cluster: agg.cluster,
     };
     if args.json {
         println!("{}", serde_json::to_string(&report)?);
@@ -325,6 +439,7 @@ struct Aggregate {
     non_edge: usize,
     degenerate: usize,
     duplicate: usize,
+    cluster: Option<ClusterStats>,
 }
 
 /// Simplifies every part of a glTF scene with the same ratio; absolute distances
@@ -373,6 +488,7 @@ fn simplify_parts(
         non_edge: 0,
         degenerate: 0,
         duplicate: 0,
+        cluster: None,
     };
     let mut first_other: Option<(StopReason, String)> = None;
     for (i, part) in scene.parts.iter().enumerate() {
@@ -390,6 +506,21 @@ fn simplify_parts(
         agg.non_edge += r.non_edge_contractions;
         agg.degenerate += r.degenerate_removed;
         agg.duplicate += r.duplicate_removed;
+        if let Some(c) = &r.cluster {
+            // Per-part clustering: keep the counts summed in the first part's stats.
+            match &mut agg.cluster {
+                Some(a) => {
+                    a.non_manifold_edges += c.non_manifold_edges;
+                    a.non_manifold_vertices += c.non_manifold_vertices;
+                    a.boundary_edges += c.boundary_edges;
+                    a.collapsed_triangles += c.collapsed_triangles;
+                    a.duplicate_triangles += c.duplicate_triangles;
+                    a.flattened_triangles += c.flattened_triangles;
+                    a.max_error = a.max_error.max(c.max_error);
+                }
+                None => agg.cluster = Some(c.clone()),
+            }
+        }
         if !matches!(
             r.stop_reason,
             StopReason::TargetReached | StopReason::EmptyInput
@@ -442,6 +573,21 @@ fn print_text(r: &CliReport) {
         r.error_absolute
     );
     println!("  stopped      {}: {}", r.stop_reason, r.stop_detail);
+    if let Some(c) = &r.cluster {
+        println!(
+            "  clustering   {} representative, cell {:.4e}, {} occupied cells; {} triangles collapsed, {} duplicates, {} flattened",
+            c.representative.name(),
+            c.cell_size,
+            c.occupied_cells,
+            c.collapsed_triangles,
+            c.duplicate_triangles,
+            c.flattened_triangles
+        );
+        println!(
+            "  topology     {} non-manifold edges, {} non-manifold vertices, {} boundary edges",
+            c.non_manifold_edges, c.non_manifold_vertices, c.boundary_edges
+        );
+    }
     println!(
         "  collapses    {} ({} non-edge); repaired {} degenerate, {} duplicate triangles",
         r.collapses, r.non_edge_contractions, r.degenerate_removed, r.duplicate_removed

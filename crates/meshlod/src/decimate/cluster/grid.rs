@@ -58,8 +58,10 @@ impl Grid {
     #[must_use]
     pub fn coords(&self, p: [f32; 3]) -> [u32; 3] {
         std::array::from_fn(|k| {
-            let x = ((f64::from(p[k]) - self.origin[k]) * self.inv).floor();
-            // NaN becomes 0 through `as`; the clamp keeps rounding at the far face in.
+            let x = (f64::from(p[k]) - self.origin[k]) * self.inv;
+            // For x ≥ 0 the saturating cast truncates, which is floor (and avoids a
+            // libm call); negatives and NaN become 0; the clamp keeps rounding at the
+            // far face in.
             (x.max(0.0) as u32).min(self.dims[k] - 1)
         })
     }

@@ -887,7 +887,6 @@ fn build_in_memory(
         stage1.push(&mut set, c, mesh.group(t));
     }
     drop(set);
-    lap("keys+stage1");
     let cells = table.len();
     let mut accs = vec![Acc::default(); cells];
     let shards = rayon::current_num_threads().clamp(1, 64);

@@ -16,10 +16,10 @@
 use anyhow::{bail, Context, Result};
 use indicatif::{ProgressBar, ProgressStyle};
 use meshlod::collapse::CollapseRecord;
+use meshlod::decimate::cluster::{ClusterOptions, ClusterStats, Representative};
 use meshlod::decimate::Observer;
 use meshlod::io::{read_scene, write_scene, Format, Scene, WriteOptions};
 use meshlod::metrics::{self, Distances, SamplingOptions};
-use meshlod::decimate::cluster::{ClusterOptions, ClusterStats, Representative};
 use meshlod::simplify::{
     simplify_observed, simplify_stream, Distance, Method, SimplifyOptions, StopReason,
 };
@@ -195,7 +195,9 @@ fn options(args: &SimplifyArgs) -> Result<SimplifyOptions> {
         MethodArg::Cluster => Method::Cluster,
     });
     if args.method != MethodArg::Cluster
-        && (args.stream || args.cell_size.is_some() || args.representative != RepresentativeArg::Quadric)
+        && (args.stream
+            || args.cell_size.is_some()
+            || args.representative != RepresentativeArg::Quadric)
     {
         bail!("--stream, --cell-size and --representative need --method cluster");
     }
@@ -349,7 +351,11 @@ fn run_stream(args: &SimplifyArgs, opts: &SimplifyOptions) -> Result<()> {
     // Measuring needs the input in memory.
     let measure = if args.measure {
         let input = read_scene(&args.input)?.flatten();
-        Some(metrics::hausdorff(&input, &s.mesh, &SamplingOptions::default()))
+        Some(metrics::hausdorff(
+            &input,
+            &s.mesh,
+            &SamplingOptions::default(),
+        ))
     } else {
         None
     };
@@ -364,7 +370,6 @@ fn report(
     read_seconds: f64,
     write_seconds: f64,
 ) -> Result<()> {
-
     let rel = if agg.diag > 0.0 {
         agg.error_absolute / agg.diag
     } else {

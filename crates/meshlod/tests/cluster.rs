@@ -52,7 +52,13 @@ fn check(mesh: &Mesh, what: &str) {
 
 #[test]
 fn repository_meshes() {
-    for f in ["stanford-bunny.obj", "fandisk.obj", "cow.obj", "spot.obj", "camelhead.off"] {
+    for f in [
+        "stanford-bunny.obj",
+        "fandisk.obj",
+        "cow.obj",
+        "spot.obj",
+        "camelhead.off",
+    ] {
         let m = meshlod::read_mesh(common::data_dir().join(f)).unwrap();
         check(&m, f);
     }
@@ -153,7 +159,10 @@ fn stream_twenty_million_triangles() {
     let n = write_torus_stl(&path, 4000, 2500);
     let write_s = t0.elapsed().as_secs_f64();
     let before = vm_hwm_kb().unwrap_or(0);
-    for (label, target) in [("ratio 0.01", n as usize / 100), ("ratio 0.001", n as usize / 1000)] {
+    for (label, target) in [
+        ("ratio 0.01", n as usize / 100),
+        ("ratio 0.001", n as usize / 1000),
+    ] {
         let t = std::time::Instant::now();
         let c = cluster_file(&path, |_| Some(target), &ClusterOptions::default()).unwrap();
         let secs = t.elapsed().as_secs_f64();

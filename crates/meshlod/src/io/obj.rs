@@ -42,8 +42,8 @@
 //! before each group. Numbers are printed in the shortest form that reads back as the
 //! same `f32`, so write → read is exact.
 
-use super::text::{parse_f32, parse_i64, show};
 use super::stream::{Sink, Source, StreamError};
+use super::text::{parse_f32, parse_i64, show};
 use super::{FormatError, Location, Part, Scene, IDENTITY};
 use crate::mesh::{Mesh, VertexAttributes};
 use std::collections::HashMap;
@@ -894,8 +894,7 @@ pub(crate) fn stream<R: std::io::Read>(
                     .into());
                 }
                 for k in 1..corners.len() - 1 {
-                    let t = [corners[0], corners[k], corners[k + 1]]
-                        .map(|i| positions[i as usize]);
+                    let t = [corners[0], corners[k], corners[k + 1]].map(|i| positions[i as usize]);
                     sink.triangle(&t, current);
                     triangles += 1;
                 }

@@ -47,8 +47,8 @@
 //! decimal that reads back to the same `f32`, so both encodings round-trip exactly
 //! (colours exactly when they are multiples of 1/255).
 
-use super::text::{self, Lines};
 use super::stream::{Sink, Source, StreamError};
+use super::text::{self, Lines};
 use super::{max_elements, FormatError, Location};
 use crate::mesh::{Mesh, VertexAttributes};
 use std::io::Write as _;
@@ -1094,14 +1094,9 @@ fn stream_body<const BE: bool, R: std::io::Read>(
                             Role::Pos(k) => {
                                 let f = v as f32;
                                 if !f.is_finite() {
-                                    return Err(non_finite(
-                                        e,
-                                        i,
-                                        pi,
-                                        v,
-                                        Location::Byte(record),
-                                    )
-                                    .into());
+                                    return Err(
+                                        non_finite(e, i, pi, v, Location::Byte(record)).into()
+                                    );
                                 }
                                 if let Some(slot) = p.get_mut(k) {
                                     *slot = f;

@@ -29,8 +29,8 @@
 //! geometry (unit length; zero for degenerate triangles). The binary header never
 //! starts with `solid`, so readers cannot mistake it for ASCII.
 
-use super::text::{self, Lines};
 use super::stream::{Sink, Source, StreamError};
+use super::text::{self, Lines};
 use super::{max_elements, FormatError, Location};
 use crate::mesh::{Mesh, Weld};
 
@@ -472,7 +472,10 @@ impl StreamTokens {
             let rest = self.line.get(self.pos..).unwrap_or_default();
             if let Some(s) = rest.iter().position(|b| !b.is_ascii_whitespace()) {
                 let r = &rest[s..];
-                let e = r.iter().position(u8::is_ascii_whitespace).unwrap_or(r.len());
+                let e = r
+                    .iter()
+                    .position(u8::is_ascii_whitespace)
+                    .unwrap_or(r.len());
                 self.token.clear();
                 self.token.extend_from_slice(&r[..e]);
                 self.pos += s + e;
@@ -504,7 +507,10 @@ impl StreamTokens {
         } else {
             Err(FormatError::new(
                 Location::Line(self.number.max(1)),
-                format!("expected '{word}' {context}, found '{}'", text::show(&self.token)),
+                format!(
+                    "expected '{word}' {context}, found '{}'",
+                    text::show(&self.token)
+                ),
             )
             .into())
         }
@@ -538,7 +544,10 @@ impl StreamTokens {
     }
 }
 
-fn stream_ascii<R: std::io::Read>(src: &mut Source<R>, sink: &mut Sink<'_>) -> Result<(), StreamError> {
+fn stream_ascii<R: std::io::Read>(
+    src: &mut Source<R>,
+    sink: &mut Sink<'_>,
+) -> Result<(), StreamError> {
     let mut toks = StreamTokens {
         line: Vec::new(),
         pos: 0,
@@ -600,7 +609,10 @@ fn stream_ascii<R: std::io::Read>(src: &mut Source<R>, sink: &mut Sink<'_>) -> R
             if corners.len() < 3 {
                 return Err(FormatError::new(
                     Location::Line(toks.number.max(1)),
-                    format!("facet {facet} has {} vertices; a facet needs 3", corners.len()),
+                    format!(
+                        "facet {facet} has {} vertices; a facet needs 3",
+                        corners.len()
+                    ),
                 )
                 .into());
             }

@@ -239,7 +239,10 @@ mod tests {
         contribute(&mut acc, [0.0; 3], &t, [true; 3], [t.area / 3.0; 3], true);
         let (x, err) = representative(&acc, [0.0; 3], 1.0, Representative::Quadric);
         assert!((x[2] - f64::from(0.3f32)).abs() < 1e-12, "{x:?}");
-        assert!((x[0] - 0.4).abs() < 1e-6 && (x[1] - 1.0 / 3.0).abs() < 1e-6, "{x:?}");
+        assert!(
+            (x[0] - 0.4).abs() < 1e-6 && (x[1] - 1.0 / 3.0).abs() < 1e-6,
+            "{x:?}"
+        );
         assert!(err.unwrap() < 1e-9);
     }
 

@@ -80,10 +80,11 @@
 //! input it gives the same mesh as [`cluster_mesh`] (positions and groups; streaming
 //! does not carry attributes).
 
+#[allow(clippy::needless_range_loop)] // 3-vectors and 3×3 matrices read best indexed
 mod accumulate;
 pub mod grid;
 
-use crate::io::stream::{self, StreamSummary};
+use crate::io::stream;
 use crate::io::IoError;
 use crate::mesh::stats::TopologyStats;
 use crate::mesh::{Mesh, Weld};
@@ -541,7 +542,7 @@ pub fn cluster_file(
         (c as f64 * scale).round() as usize
     };
     let mut failure: Option<IoError> = None;
-    let builder = |grid: &Grid| match build_streamed(path, grid, options, &summary) {
+    let builder = |grid: &Grid| match build_streamed(path, grid, options) {
         Ok(b) => b,
         Err(e) => {
             failure.get_or_insert(e);
@@ -894,25 +895,23 @@ fn build_in_memory(
     let quadric = how == Representative::Quadric;
     let vcell = &vcell;
     let table_ref = &table;
-    accs.par_chunks_mut(per)
-        .enumerate()
-        .for_each(|(s, part)| {
-            let start = (s * per) as u32;
-            let end = start + part.len() as u32;
-            let owned = |c: u32| c >= start && c < end;
-            for tri in &mesh.triangles {
-                let c = tri.map(|v| vcell[v as usize]);
-                if !(owned(c[0]) || owned(c[1]) || owned(c[2])) {
-                    continue;
-                }
-                let corners = tri.map(|v| mesh.positions[v as usize]);
-                let t = Prepared::new(&corners, grid.origin);
-                let w = corner_weights(&t, how, |k| {
-                    factors.map_or(1.0, |f| f64::from(f[tri[k] as usize]))
-                });
-                add_to_cells(&t, c, w, quadric, grid, table_ref, part, start);
+    accs.par_chunks_mut(per).enumerate().for_each(|(s, part)| {
+        let start = (s * per) as u32;
+        let end = start + part.len() as u32;
+        let owned = |c: u32| c >= start && c < end;
+        for tri in &mesh.triangles {
+            let c = tri.map(|v| vcell[v as usize]);
+            if !(owned(c[0]) || owned(c[1]) || owned(c[2])) {
+                continue;
             }
-        });
+            let corners = tri.map(|v| mesh.positions[v as usize]);
+            let t = Prepared::new(&corners, grid.origin);
+            let w = corner_weights(&t, how, |k| {
+                factors.map_or(1.0, |f| f64::from(f[tri[k] as usize]))
+            });
+            add_to_cells(&t, c, w, quadric, grid, table_ref, part, start);
+        }
+    });
     let mut out = finish(grid, &table, &accs, stage1, how, mesh.group_names.clone());
     // Attributes: per output vertex the closest input vertex of its cells.
     let n_out = out.mesh.positions.len();
@@ -956,7 +955,6 @@ fn build_streamed(
     path: &Path,
     grid: &Grid,
     options: &ClusterOptions,
-    summary: &StreamSummary,
 ) -> Result<Clustered, IoError> {
     let how = options.representative;
     let quadric = how == Representative::Quadric;
@@ -976,7 +974,6 @@ fn build_streamed(
         let w = corner_weights(&t, how, |_| 1.0);
         add_to_cells(&t, c, w, quadric, grid, &table, &mut accs, 0);
     })?;
-    let _ = summary;
     let set_bytes = set.bytes();
     drop(set);
     let mut out = finish(grid, &table, &accs, stage1, how, s.group_names);
@@ -1019,7 +1016,10 @@ fn add_to_cells(
         if (k >= 1 && c[k] == c[0]) || (k == 2 && c[2] == c[1]) {
             continue;
         }
-        if let Some(a) = c[k].checked_sub(start).and_then(|i| accs.get_mut(i as usize)) {
+        if let Some(a) = c[k]
+            .checked_sub(start)
+            .and_then(|i| accs.get_mut(i as usize))
+        {
             let mask = [c[0] == c[k], c[1] == c[k], c[2] == c[k]];
             let corner = grid.corner(grid::unpack(table.key(c[k])));
             contribute(a, corner, t, mask, w, quadric);
@@ -1096,7 +1096,7 @@ fn finish(
         groups.push(g);
     }
     let working_bytes = table.bytes()
-        + accs.len() * std::mem::size_of::<Acc>()
+        + std::mem::size_of_val(accs)
         + reps.len() * 32
         + stage1.cells.capacity() * 16
         + set.bytes();

@@ -106,7 +106,12 @@ fn flat_surfaces_stay_flat() {
 #[test]
 fn unit_square_collapses_or_survives() {
     let m = Mesh::from_triangles(
-        vec![[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [1.0, 1.0, 0.0], [0.0, 1.0, 0.0]],
+        vec![
+            [0.0, 0.0, 0.0],
+            [1.0, 0.0, 0.0],
+            [1.0, 1.0, 0.0],
+            [0.0, 1.0, 0.0],
+        ],
         vec![[0, 1, 2], [0, 2, 3]],
     );
     let o = ClusterOptions::default().with_cell_size(Distance::Absolute(2.0));
@@ -116,7 +121,15 @@ fn unit_square_collapses_or_survives() {
     let o = ClusterOptions::default().with_cell_size(Distance::Absolute(0.6));
     let c = cluster_mesh(&m, None, &o).unwrap();
     assert_eq!(c.mesh.triangles.len(), 2);
-    assert_eq!(c.mesh.positions, vec![m.positions[0], m.positions[1], m.positions[2], m.positions[3]]);
+    assert_eq!(
+        c.mesh.positions,
+        vec![
+            m.positions[0],
+            m.positions[1],
+            m.positions[2],
+            m.positions[3]
+        ]
+    );
 }
 
 /// A fin: two triangles over the same three cells (one of each winding) keep one.

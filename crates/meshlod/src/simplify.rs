@@ -39,6 +39,7 @@
 use crate::collapse::{BuildOptions, OperatorLimits, Surface};
 use crate::cost::{Placement, Qem, QemOptions};
 use crate::decimate::edge_collapse::{self, EdgeCollapseOptions};
+use crate::decimate::vertex_removal::{VertexRemoval, VertexRemovalOptions};
 use crate::decimate::{NoObserver, Observer, Rejections, StopRule};
 use crate::filter::{AspectRatio, Filter, LockBoundary, NormalDeviation};
 use crate::mesh::{Mesh, MeshError};
@@ -55,6 +56,11 @@ pub enum Method {
     /// Quadric error metric edge collapse (Garland & Heckbert 1997).
     #[default]
     Qem,
+    /// Schroeder vertex decimation: vertex removal with split-plane hole
+    /// triangulation and accumulated error (Schroeder, Zarge & Lorensen 1992;
+    /// `vtkDecimatePro`). Every output vertex is an input vertex, unmoved. See
+    /// [`crate::decimate::vertex_removal`].
+    VertexRemoval,
 }
 
 impl Method {
@@ -63,6 +69,7 @@ impl Method {
     pub fn name(self) -> &'static str {
         match self {
             Self::Qem => "qem",
+            Self::VertexRemoval => "vertex-removal",
         }
     }
 }
@@ -138,6 +145,14 @@ pub struct SimplifyOptions {
     pub min_triangle_quality: f64,
     /// Where a merged vertex goes. Default [`Placement::Optimal`].
     pub placement: Placement,
+    /// [`Method::VertexRemoval`]: a spoke whose two triangles meet at a dihedral
+    /// angle above this many degrees is a feature edge (creases are kept as edges,
+    /// points on them measured by their distance to the crease line). Default `15.0`.
+    pub feature_angle: f64,
+    /// [`Method::VertexRemoval`]: never remove corner points (one or more than two
+    /// feature edges). Default `false` (corners go by their distance to the average
+    /// plane, as in `vtkDecimate`).
+    pub keep_corners: bool,
 }
 
 impl Default for SimplifyOptions {
@@ -155,6 +170,8 @@ impl Default for SimplifyOptions {
             pair_threshold: None,
             min_triangle_quality: 0.1,
             placement: Placement::Optimal,
+            feature_angle: crate::decimate::vertex_removal::DEFAULT_FEATURE_ANGLE,
+            keep_corners: false,
         }
     }
 }
@@ -232,6 +249,18 @@ impl SimplifyOptions {
         self.placement = p;
         self
     }
+    /// Sets [`Self::feature_angle`] (degrees).
+    #[must_use]
+    pub fn with_feature_angle(mut self, degrees: f64) -> Self {
+        self.feature_angle = degrees;
+        self
+    }
+    /// Sets [`Self::keep_corners`].
+    #[must_use]
+    pub fn with_keep_corners(mut self, keep: bool) -> Self {
+        self.keep_corners = keep;
+        self
+    }
 
     /// The target triangle count for an input of `triangles` triangles.
     #[must_use]
@@ -285,6 +314,12 @@ impl SimplifyOptions {
                     format!("{a} is not in [0, 180] degrees"),
                 );
             }
+        }
+        if !(0.0..=180.0).contains(&self.feature_angle) {
+            return bad(
+                "feature_angle",
+                format!("{} is not in [0, 180] degrees", self.feature_angle),
+            );
         }
         if !(0.0..=1.0).contains(&self.min_triangle_quality) {
             return bad(
@@ -448,7 +483,7 @@ pub fn simplify_observed(
     if let Some(f) = &aspect {
         filters.push(f);
     }
-    let outcome = match options.method {
+    let (outcome, triangles) = match options.method {
         Method::Qem => {
             let qo = QemOptions {
                 boundary_weight: options.boundary_weight,
@@ -456,10 +491,25 @@ pub fn simplify_observed(
                 ..QemOptions::default()
             };
             let mut qem = Qem::new(qo);
-            edge_collapse::run(&mut surface, &mut qem, &filters, &driver_options, observer)
+            let outcome =
+                edge_collapse::run(&mut surface, &mut qem, &filters, &driver_options, observer);
+            (outcome, surface.output_triangles())
+        }
+        Method::VertexRemoval => {
+            let mut vr = VertexRemoval::new(
+                &surface,
+                VertexRemovalOptions {
+                    feature_angle: options.feature_angle,
+                    keep_corners: options.keep_corners,
+                    lock_boundary: options.lock_boundary,
+                    stop: driver_options.stop,
+                },
+            );
+            let outcome = vr.run(observer);
+            (outcome, vr.output_triangles())
         }
     };
-    let (out, vertex_source) = build_output(mesh, &mut surface);
+    let (out, vertex_source) = build_output(mesh, triangles, &mut surface);
     let report = Report {
         method: options.method.name(),
         triangles_in: mesh.triangles.len(),
@@ -492,9 +542,15 @@ pub fn simplify_observed(
     })
 }
 
+/// Live triangles as wedge triples and point triples, with their groups.
+type OutputTriangles = (Vec<[u32; 3]>, Vec<[u32; 3]>, Option<Vec<u32>>);
+
 /// The surviving triangles over a compacted vertex buffer in first-use order.
-fn build_output(mesh: &Mesh, surface: &mut Surface) -> (Mesh, Vec<u32>) {
-    let (wedges, points, groups) = surface.output_triangles();
+fn build_output(
+    mesh: &Mesh,
+    (wedges, points, groups): OutputTriangles,
+    surface: &mut Surface,
+) -> (Mesh, Vec<u32>) {
     let mut remap = vec![u32::MAX; mesh.positions.len()];
     let mut source = Vec::new();
     let mut positions = Vec::new();

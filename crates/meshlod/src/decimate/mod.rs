@@ -5,11 +5,13 @@
 //! [`crate::filter::Filter`]s over the always-on collapse operator
 //! ([`crate::collapse`]), in cost order from a priority queue with lazy
 //! invalidation, until the [`StopRule`] holds; it reports through an [`Observer`]
-//! and returns an [`Outcome`] that says why it stopped. Vertex-removal (Schroeder)
-//! and clustering drivers will sit beside it.
+//! and returns an [`Outcome`] that says why it stopped. [`vertex_removal`] is
+//! Schroeder's vertex decimation (its own operator: remove a point, re-triangulate
+//! the hole) with the same queue, stop rules and outcome.
 
 pub mod edge_collapse;
 mod heap;
+pub mod vertex_removal;
 
 use crate::collapse::CollapseRecord;
 use serde::Serialize;

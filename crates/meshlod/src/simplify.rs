@@ -652,3 +652,5 @@ fn close_pairs(surface: &mut Surface, t: f64) -> Vec<[u32; 2]> {
 
 #[cfg(test)]
 mod tests;
+#[cfg(test)]
+mod tests_vertex_removal;

@@ -42,27 +42,43 @@
 //! triangle is never removed, and every new triangle must face the side of the
 //! average plane's normal with a non-zero area.
 //!
+//! Besides the average-plane test, every new triangle must face the side of the
+//! input triangles it stands for: each triangle carries the sum of the area-weighted
+//! normals of the input triangles it replaced, and a new triangle must have a positive
+//! dot product with its fan's sum and with the sum of the old triangle on each loop
+//! edge it keeps. A simple or corner point whose fan does not project one-to-one onto
+//! its average plane (a fold) is kept.
+//!
 //! # Error
 //! Every triangle carries an error bound `e` (0 on input triangles). Removing `v`
-//! costs `δ(v)`: the largest of the Schroeder distance above, the distance from `v`
-//! to the new triangles, and — where `v`'s spokes cross the new edges as seen along
-//! the average normal — the gap between old and new surface along that normal. The
-//! new triangles get `e = max(e of the removed triangles) + δ(v)`, and that value is
-//! the candidate's cost. While the old fan and the new patch both project one-to-one
-//! onto the average plane (the flip check guarantees it for the patch; it holds for
-//! the fan of any point that is not a fold), the gap between two piecewise-linear
-//! height fields is largest at a vertex of their overlay — `v` or a spoke crossing —
-//! so `δ` bounds the distance between old and new surface, and by induction `e`
-//! bounds the distance from every part of the input surface that a triangle replaced
-//! to that triangle. It is the quantity [`StopRule::max_error`] caps, over the whole
-//! run, not per step.
+//! has a step distance `δ(v)`: the largest of the Schroeder distance above, the
+//! distance from `v` to the new triangles, and — along the average normal — the gap
+//! between old and new surface at `v` and wherever `v`'s spokes cross the new edges.
+//! The new triangles get `e = max(e of the removed triangles) + δ(v)`.
+//!
+//! What `e` means: for a simple or corner point the old fan and the new patch both
+//! project one-to-one onto the average plane (checked), over the same polygon, so the
+//! gap between them — two piecewise-linear height fields — is largest at a vertex of
+//! their overlay, `v` or a spoke crossing: `δ` bounds the distance from every point of
+//! the old fan to the new patch and back. By induction (triangle inequality), `e` of a
+//! triangle bounds the distance from every point of the input surface it replaced to
+//! the output surface. For boundary and interior-edge points, whose old and new
+//! domains differ by the triangle between `v` and its feature line, `δ` adds the
+//! distance to that line, which bounds the distance along the line but is an estimate
+//! elsewhere. The largest `e` over the run is the reported error, and
+//! [`StopRule::max_error`] caps it over the whole run, not per step. Measured
+//! Hausdorff distances stay below it (tests check this).
 //!
 //! # Strategy
-//! A priority queue by cost with lazy invalidation (a version counter per point): the
-//! cheapest removal first, its loop points re-evaluated after it. `vtkDecimate`'s
-//! alternative — passes over all points with a growing threshold — removes points in
-//! index order inside each pass, which gives worse error for the same count; the queue
-//! costs one heap operation per evaluation.
+//! A priority queue with lazy invalidation (a version counter per point): the
+//! cheapest removal first, its loop points re-evaluated after it. With a maximum
+//! error the key is the accumulated bound `e` (`vtkDecimatePro`'s order: most points
+//! removed under the bound); with only a target count the key is the step distance
+//! `δ`, which measured lower Hausdorff distances and fewer fold-overs at the same count
+//! (bunny at 10%: 0.21% against 0.36% of the diagonal). `vtkDecimate`'s alternative —
+//! passes over all points with a threshold that grows until the target — removes
+//! points in index order inside a pass, so a pass mixes cheap and expensive removals
+//! under its threshold; the queue costs one heap operation per evaluation.
 
 #[cfg(test)]
 mod tests;
@@ -142,6 +158,18 @@ enum Refusal {
     Degenerate,
 }
 
+/// The class of a loop and how it must be split.
+#[derive(Debug, Clone, Copy)]
+struct Shape {
+    class: VertexClass,
+    /// The two feature spokes (loop indices) of a split.
+    features: [usize; 2],
+    /// Split along `features` first (the feature line survives as an edge).
+    split: bool,
+    /// A seam that no split can keep runs through the fan.
+    seam_blocked: bool,
+}
+
 /// A new triangle: loop indices and their wedges, and the group.
 #[derive(Debug, Clone, Copy, Default)]
 struct NewTri {
@@ -175,6 +203,10 @@ struct Plan {
     /// Positions of `q_i` (local f64) and twice-area normals of `tris[i]`.
     pos: Vec<[f64; 3]>,
     normal: Vec<[f64; 3]>,
+    /// Original area-weighted normals of `tris[i]` (see `VertexRemoval::origin`) and
+    /// their sum.
+    origin: Vec<[f64; 3]>,
+    origin_sum: [f64; 3],
     /// `adj[i]` bit `j`: `q_i`–`q_j` is an edge of the mesh already (valid for the
     /// rows in `adj_done`).
     adj: Vec<u64>,
@@ -190,6 +222,8 @@ struct Plan {
     out: Vec<NewTri>,
     class: Option<VertexClass>,
     cost: f64,
+    /// The step's own distance `δ`.
+    delta: f64,
 }
 
 /// Read-only connectivity for the lazy edge lookups of a [`Plan`].
@@ -238,6 +272,9 @@ pub struct VertexRemoval {
     wedge: Vec<[u32; 3]>,
     group: Option<Vec<u32>>,
     err: Vec<f64>,
+    /// Per triangle: the sum of twice-area normals of the input triangles it stands
+    /// for (a removal shares its fan's sum among the new triangles).
+    origin: Vec<[f64; 3]>,
     fan_start: Vec<u32>,
     fan_len: Vec<u32>,
     fan_cap: Vec<u32>,
@@ -252,7 +289,8 @@ pub struct VertexRemoval {
     slot: Vec<u8>,
     gen: u32,
     rejections: Rejections,
-    dbg: [usize; 3],
+    /// Queue key: the accumulated bound (with a maximum error) or the step's `δ`.
+    order_by_bound: bool,
 }
 
 #[inline]
@@ -321,6 +359,7 @@ impl VertexRemoval {
             locked,
             version: vec![0; np],
             err: vec![0.0; tri.len()],
+            origin: Vec::new(),
             live: tri.len(),
             tri,
             wedge,
@@ -338,9 +377,17 @@ impl VertexRemoval {
             slot: vec![0; np],
             gen: 0,
             rejections: Rejections::default(),
-            dbg: [0; 3],
+            order_by_bound: options.stop.max_error.is_some(),
         };
         s.build_fans();
+        s.origin = s
+            .tri
+            .iter()
+            .map(|t| {
+                let [a, b, c] = t.map(|p| s.pos[p as usize]);
+                cross(sub(b, a), sub(c, a))
+            })
+            .collect();
         s
     }
 
@@ -439,7 +486,7 @@ impl VertexRemoval {
     /// The class of point `p` in the current mesh (Schroeder's five classes).
     pub fn classify(&mut self, p: u32) -> VertexClass {
         match self.build_loop(p) {
-            Ok(()) => self.classify_loop(p).0,
+            Ok(()) => self.classify_loop(p).class,
             Err(_) => VertexClass::Complex,
         }
     }
@@ -525,7 +572,7 @@ impl VertexRemoval {
 
     /// Classifies the loop in `plan` and returns the class with the feature spokes
     /// (loop indices) of an interior edge; fills wedges, positions and normals.
-    fn classify_loop(&mut self, v: u32) -> (VertexClass, [usize; 2], bool) {
+    fn classify_loop(&mut self, v: u32) -> Shape {
         let plan = &mut self.plan;
         let m = plan.q.len();
         let nt = plan.tris.len();
@@ -550,6 +597,13 @@ impl VertexRemoval {
             let j = (i + 1) % m;
             plan.normal.push(cross(plan.pos[i], plan.pos[j]));
         }
+        plan.origin.clear();
+        plan.origin_sum = [0.0; 3];
+        for &t in &plan.tris {
+            let o = self.origin[t as usize];
+            plan.origin.push(o);
+            plan.origin_sum = add(plan.origin_sum, o);
+        }
         for i in 0..m {
             let q = plan.q[i];
             let r = if i < nt {
@@ -567,9 +621,9 @@ impl VertexRemoval {
             plan.left.push(if l == DEAD { r } else { l });
         }
         // Features on interior spokes.
-        let mut features = [0usize; 2];
-        let mut nf = 0;
-        let mut seam = false;
+        let mut seams = [0usize; 2];
+        let mut creases = [0usize; 2];
+        let (mut ns, mut nc) = (0, 0);
         let (lo, hi) = if plan.closed { (0, m) } else { (1, m - 1) };
         for i in lo..hi {
             let t0 = plan.tris[(i + nt - 1) % nt];
@@ -580,31 +634,57 @@ impl VertexRemoval {
             let n0 = plan.normal[(i + nt - 1) % nt];
             let n1 = plan.normal[i];
             let crease = dot(n0, n1) < self.cos_feature * norm(n0) * norm(n1);
-            if is_seam || crease {
-                if nf < 2 {
-                    features[nf] = i;
+            if is_seam {
+                if ns < 2 {
+                    seams[ns] = i;
                 }
-                nf += 1;
-                seam |= is_seam;
+                ns += 1;
+            } else if crease {
+                if nc < 2 {
+                    creases[nc] = i;
+                }
+                nc += 1;
             }
         }
-        let class = if !plan.closed {
-            if nf == 0 {
+        let apart = |f: [usize; 2]| {
+            let d = f[1] - f[0];
+            d != 1 && d != m - 1
+        };
+        let mut shape = Shape {
+            class: VertexClass::Corner,
+            features: [0; 2],
+            split: false,
+            seam_blocked: false,
+        };
+        if !plan.closed {
+            shape.seam_blocked = ns > 0;
+            shape.class = if nc == 0 {
                 VertexClass::Boundary
             } else {
                 VertexClass::Corner
+            };
+        } else if ns == 0 {
+            if nc == 0 {
+                shape.class = VertexClass::Simple;
+            } else if nc == 2 && apart(creases) {
+                shape.class = VertexClass::InteriorEdge;
+                shape.features = creases;
+                shape.split = true;
             }
-        } else if nf == 0 {
-            VertexClass::Simple
-        } else if nf == 2 && {
-            let d = features[1] - features[0];
-            d != 1 && d != m - 1
-        } {
-            VertexClass::InteriorEdge
+        } else if ns == 2 && apart(seams) {
+            // The seam (or material border) is the feature line; other creases make
+            // it a corner that is still split along the seam.
+            shape.class = if nc == 0 {
+                VertexClass::InteriorEdge
+            } else {
+                VertexClass::Corner
+            };
+            shape.features = seams;
+            shape.split = true;
         } else {
-            VertexClass::Corner
-        };
-        (class, features, seam)
+            shape.seam_blocked = true;
+        }
+        shape
     }
 
     /// Evaluates removing `v`: on success `plan` holds the new triangles and the cost.
@@ -613,17 +693,15 @@ impl VertexRemoval {
             return Err(Refusal::Kind);
         }
         self.build_loop(v)?;
-        self.dbg[0] += 1;
-        self.dbg[1] += self.plan.q.len();
-        self.dbg[2] = self.dbg[2].max(self.plan.q.len());
-        let (class, features, seam) = self.classify_loop(v);
+        let shape = self.classify_loop(v);
+        let (class, features) = (shape.class, shape.features);
         self.plan.class = Some(class);
         let open = !self.plan.closed;
-        match class {
-            VertexClass::Complex => return Err(Refusal::Kind),
-            VertexClass::Corner if seam => return Err(Refusal::Seam),
-            VertexClass::Corner if self.options.keep_corners => return Err(Refusal::Kind),
-            _ => {}
+        if shape.seam_blocked {
+            return Err(Refusal::Seam);
+        }
+        if class == VertexClass::Corner && self.options.keep_corners {
+            return Err(Refusal::Kind);
         }
         if open && self.options.lock_boundary {
             return Err(Refusal::Kind);
@@ -663,14 +741,15 @@ impl VertexRemoval {
         let n_avg = scale(area_n, 1.0 / ln);
         base = scale(base, 1.0 / area_sum);
         // v sits at the origin of plan.pos.
-        let schroeder = match class {
-            VertexClass::Simple | VertexClass::Corner if !open => dot(base, n_avg).abs(),
-            VertexClass::InteriorEdge => line_distance(
-                [0.0; 3],
-                self.plan.pos[features[0]],
-                self.plan.pos[features[1]],
-            ),
-            _ => line_distance([0.0; 3], self.plan.pos[0], self.plan.pos[m - 1]),
+        let to_line = |i: usize, j: usize| line_distance([0.0; 3], self.plan.pos[i], self.plan.pos[j]);
+        let schroeder = if open {
+            to_line(0, m - 1)
+        } else if class == VertexClass::InteriorEdge {
+            to_line(features[0], features[1])
+        } else if shape.split {
+            dot(base, n_avg).abs().max(to_line(features[0], features[1]))
+        } else {
+            dot(base, n_avg).abs()
         };
         let group_of = |s: &Self, t: u32| s.group.as_ref().map_or(0, |g| g[t as usize]);
         self.plan.out.clear();
@@ -704,7 +783,7 @@ impl VertexRemoval {
                 if self.loop_adjacent(0, m - 1) {
                     return Err(Refusal::Duplicate);
                 }
-            } else if class == VertexClass::InteriorEdge {
+            } else if shape.split {
                 let (i0, j0) = (features[0], features[1]);
                 if self.loop_adjacent(i0, j0) {
                     return Err(Refusal::Duplicate);
@@ -748,12 +827,16 @@ impl VertexRemoval {
                     return Err(Refusal::Duplicate);
                 }
             }
+            let closed_whole = !open && !shape.split;
             for r in &regions[..nr] {
                 let group = group_of(self, self.plan.tris[r.first]);
                 let before = self.plan.out.len();
                 let d0 = self.plan.diagonals.len();
                 self.split_region(r, group)?;
-                delta = delta.max(self.region_gap(r, before, d0, !open && class != VertexClass::InteriorEdge));
+                delta = delta.max(self.region_gap(r, before, d0, closed_whole));
+            }
+            if closed_whole && !self.fan_is_height_field(n_avg) {
+                return Err(Refusal::Flip);
             }
         }
         let mut e_fan: f64 = 0.0;
@@ -761,6 +844,7 @@ impl VertexRemoval {
             e_fan = e_fan.max(self.err[t as usize]);
         }
         self.plan.cost = e_fan + delta;
+        self.plan.delta = delta;
         Ok(())
     }
 
@@ -807,6 +891,18 @@ impl VertexRemoval {
                 }
                 if dot(tn, n) <= 1e-6 * l2.sqrt() {
                     return Err(Refusal::Flip);
+                }
+                // No flip against the input surface: the new triangle faces the side
+                // of the input triangles the fan stands for, and of those the old
+                // triangle on each shared loop edge stands for.
+                if dot(tn, plan.origin_sum) <= 0.0 {
+                    return Err(Refusal::Flip);
+                }
+                for e in 0..3 {
+                    let (x, y) = (c[e] as usize, c[(e + 1) % 3] as usize);
+                    if (x + 1) % m == y && x < plan.origin.len() && dot(tn, plan.origin[x]) <= 0.0 {
+                        return Err(Refusal::Flip);
+                    }
                 }
                 let wedge = c.map(|k| {
                     let k = k as usize;
@@ -952,9 +1048,30 @@ impl VertexRemoval {
         gap
     }
 
+    /// Whether the closed fan projects one-to-one onto the plane of `n`: every
+    /// triangle faces `n`'s side and the spokes turn once around `v`.
+    fn fan_is_height_field(&self, n: [f64; 3]) -> bool {
+        let plan = &self.plan;
+        if plan.normal.iter().any(|&t| dot(t, n) <= 0.0) {
+            return false;
+        }
+        let m = plan.q.len();
+        let mut turn = 0.0;
+        for i in 0..m {
+            let (a, b) = (plan.pos[i], plan.pos[(i + 1) % m]);
+            turn += dot(cross(a, b), n).atan2(dot(a, b) - dot(a, n) * dot(b, n));
+        }
+        turn < 3.0 * std::f64::consts::PI
+    }
+
     /// Performs the removal planned by the last successful `evaluate(v)`.
     fn apply(&mut self, v: u32) {
         let e_new = self.plan.cost;
+        let share = if self.plan.out.is_empty() {
+            [0.0; 3]
+        } else {
+            scale(self.plan.origin_sum, 1.0 / self.plan.out.len() as f64)
+        };
         let plan = std::mem::take(&mut self.plan);
         for &t in &plan.tris {
             self.tri[t as usize] = [DEAD; 3];
@@ -972,6 +1089,7 @@ impl VertexRemoval {
                 g[t as usize] = nt.group;
             }
             self.err[t as usize] = e_new;
+            self.origin[t as usize] = share;
             for p in pts {
                 self.fan_push(p, t);
             }
@@ -1040,7 +1158,11 @@ impl VertexRemoval {
                     stamp: self.version[v as usize],
                     cost_bits: 0,
                 }
-                .with_cost(self.plan.cost),
+                .with_cost(if self.order_by_bound {
+                    self.plan.cost
+                } else {
+                    self.plan.delta
+                }),
             ),
             Err(r) => self.count(r),
         }
@@ -1085,7 +1207,7 @@ impl VertexRemoval {
             if item.stamp != self.version[v as usize] || self.fan_len[v as usize] == 0 {
                 continue;
             }
-            if f64::from(f32::from_bits(item.cost_bits)) > max_error {
+            if self.order_by_bound && f64::from(f32::from_bits(item.cost_bits)) > max_error {
                 over_error = true;
                 break;
             }
@@ -1110,9 +1232,6 @@ impl VertexRemoval {
             }
         }
         observer.progress(self.live);
-        if std::env::var_os("VR_DEBUG").is_some() {
-            eprintln!("evals {} summ {} maxm {}", self.dbg[0], self.dbg[1], self.dbg[2]);
-        }
         outcome.collapses = removed;
         outcome.rejections = self.rejections;
         if self.live <= target {
@@ -1121,7 +1240,7 @@ impl VertexRemoval {
                 "{} triangles left, target {target}, after removing {removed} points",
                 self.live
             );
-        } else if over_error {
+        } else if over_error || self.rejections.max_error > 0 {
             outcome.stop_reason = StopReason::MaxError;
             outcome.stop_detail = format!(
                 "every remaining removal would exceed the maximum error {max_error:.6}; \

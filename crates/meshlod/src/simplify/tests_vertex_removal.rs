@@ -146,7 +146,10 @@ fn tube_and_torus_keep_topology() {
         let before = MeshStats::of(&m);
         let s = run(&m, &vr().with_ratio(0.05));
         let after = MeshStats::of(&s.mesh);
-        assert_eq!(after.topology.boundary_loops, before.topology.boundary_loops);
+        assert_eq!(
+            after.topology.boundary_loops,
+            before.topology.boundary_loops
+        );
         assert_eq!(after.topology.genus, before.topology.genus);
     }
 }
@@ -207,7 +210,10 @@ fn uv_seam_respected() {
     let uv = s.mesh.attributes.uv0.as_ref().unwrap();
     for t in &s.mesh.triangles {
         let sides: Vec<bool> = t.iter().map(|&i| uv[i as usize][0] > 5.0).collect();
-        assert!(sides.iter().all(|&x| x == sides[0]), "a triangle crosses the seam");
+        assert!(
+            sides.iter().all(|&x| x == sides[0]),
+            "a triangle crosses the seam"
+        );
     }
     assert!(s.mesh.triangles.len() < m.triangles.len() / 2);
 }

@@ -630,7 +630,10 @@ impl VertexRemoval {
             let t1 = plan.tris[i];
             let is_seam = plan.left[i] != plan.right[i]
                 || self.wedge[t0 as usize][corner(t0, v)] != self.wedge[t1 as usize][corner(t1, v)]
-                || self.group.as_ref().is_some_and(|g| g[t0 as usize] != g[t1 as usize]);
+                || self
+                    .group
+                    .as_ref()
+                    .is_some_and(|g| g[t0 as usize] != g[t1 as usize]);
             let n0 = plan.normal[(i + nt - 1) % nt];
             let n1 = plan.normal[i];
             let crease = dot(n0, n1) < self.cos_feature * norm(n0) * norm(n1);
@@ -688,7 +691,10 @@ impl VertexRemoval {
     }
 
     /// Evaluates removing `v`: on success `plan` holds the new triangles and the cost.
-    fn evaluate(&mut self, v: u32) -> Result<(), Refusal> {
+    /// Without `full`, stops after the classification and the Schroeder distance:
+    /// `plan.delta` and `plan.cost` are then lower bounds of the full values (`δ`
+    /// includes the Schroeder distance), and no triangles are planned.
+    fn evaluate(&mut self, v: u32, full: bool) -> Result<(), Refusal> {
         if self.locked[v as usize] {
             return Err(Refusal::Kind);
         }
@@ -741,16 +747,28 @@ impl VertexRemoval {
         let n_avg = scale(area_n, 1.0 / ln);
         base = scale(base, 1.0 / area_sum);
         // v sits at the origin of plan.pos.
-        let to_line = |i: usize, j: usize| line_distance([0.0; 3], self.plan.pos[i], self.plan.pos[j]);
+        let to_line =
+            |i: usize, j: usize| line_distance([0.0; 3], self.plan.pos[i], self.plan.pos[j]);
         let schroeder = if open {
             to_line(0, m - 1)
         } else if class == VertexClass::InteriorEdge {
             to_line(features[0], features[1])
         } else if shape.split {
-            dot(base, n_avg).abs().max(to_line(features[0], features[1]))
+            dot(base, n_avg)
+                .abs()
+                .max(to_line(features[0], features[1]))
         } else {
             dot(base, n_avg).abs()
         };
+        let mut e_fan: f64 = 0.0;
+        for &t in &self.plan.tris {
+            e_fan = e_fan.max(self.err[t as usize]);
+        }
+        if !full {
+            self.plan.cost = e_fan + schroeder;
+            self.plan.delta = schroeder;
+            return Ok(());
+        }
         let group_of = |s: &Self, t: u32| s.group.as_ref().map_or(0, |g| g[t as usize]);
         self.plan.out.clear();
         self.plan.diagonals.clear();
@@ -839,10 +857,6 @@ impl VertexRemoval {
                 return Err(Refusal::Flip);
             }
         }
-        let mut e_fan: f64 = 0.0;
-        for &t in &self.plan.tris {
-            e_fan = e_fan.max(self.err[t as usize]);
-        }
         self.plan.cost = e_fan + delta;
         self.plan.delta = delta;
         Ok(())
@@ -930,13 +944,13 @@ impl VertexRemoval {
                     }
                     let pj = poly[j] as usize;
                     let d = sub(plan.pos[pj], a);
-                    let ld = norm(d);
+                    let ld2 = dot(d, d);
+                    // Split-plane normal, unnormalised: |s| = |d| sin(d, n).
                     let s = cross(d, n);
-                    let ls = norm(s);
-                    if ld == 0.0 || ls <= 1e-12 * ld {
+                    let ls2 = dot(s, s);
+                    if ld2 == 0.0 || ls2 <= 1e-24 * ld2 {
                         continue;
                     }
-                    let s = scale(s, 1.0 / ls);
                     let mut min = f64::INFINITY;
                     let mut ok = true;
                     for (k, &pk) in poly.iter().enumerate() {
@@ -955,9 +969,10 @@ impl VertexRemoval {
                     if !ok {
                         continue;
                     }
-                    let aspect = min / ld;
-                    if best.is_none_or(|b| aspect > b.0) && !plan.adjacent(&links, pi, pj) {
-                        best = Some((aspect, i, j));
+                    // aspect = (min / |s|) / |d|, compared squared (no square roots).
+                    let aspect2 = min * min / (ls2 * ld2);
+                    if best.is_none_or(|b| aspect2 > b.0) && !plan.adjacent(&links, pi, pj) {
+                        best = Some((aspect2, i, j));
                     }
                 }
             }
@@ -1149,8 +1164,18 @@ impl VertexRemoval {
         }
     }
 
+    /// The queue key of the evaluated plan.
+    fn key(&self) -> f64 {
+        if self.order_by_bound {
+            self.plan.cost
+        } else {
+            self.plan.delta
+        }
+    }
+
+    /// Queues `v` with the cheap lower bound of its key (`b = 0`).
     fn push(&mut self, heap: &mut Heap, v: u32) {
-        match self.evaluate(v) {
+        match self.evaluate(v, false) {
             Ok(()) => heap.push(
                 Item {
                     a: v,
@@ -1158,11 +1183,7 @@ impl VertexRemoval {
                     stamp: self.version[v as usize],
                     cost_bits: 0,
                 }
-                .with_cost(if self.order_by_bound {
-                    self.plan.cost
-                } else {
-                    self.plan.delta
-                }),
+                .with_cost(self.key()),
             ),
             Err(r) => self.count(r),
         }
@@ -1211,9 +1232,18 @@ impl VertexRemoval {
                 over_error = true;
                 break;
             }
-            if let Err(r) = self.evaluate(v) {
+            if let Err(r) = self.evaluate(v, true) {
                 self.count(r);
                 continue;
+            }
+            // The entry held a lower bound: if the full key is above the next
+            // entry, queue it again with the full key (best-first stays exact).
+            if item.b == 0 {
+                let exact = Item { b: 1, ..item }.with_cost(self.key());
+                if heap.peek_cost_bits().is_some_and(|c| c < exact.cost_bits) {
+                    heap.push(exact);
+                    continue;
+                }
             }
             if self.plan.cost > max_error {
                 self.rejections.max_error += 1;

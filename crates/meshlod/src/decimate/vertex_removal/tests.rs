@@ -99,7 +99,10 @@ fn bow_tie_is_complex() {
         vec![[0, 1, 2], [0, 4, 3]],
     );
     let mut vr = remover(&m, VertexRemovalOptions::default());
-    assert_eq!(vr.classify(point_at(&m, [0.0, 0.0, 0.0])), VertexClass::Complex);
+    assert_eq!(
+        vr.classify(point_at(&m, [0.0, 0.0, 0.0])),
+        VertexClass::Complex
+    );
 }
 
 /// A closed cube (8 corners of 3 feature edges each, plus face centres): corners are
@@ -109,11 +112,7 @@ fn bow_tie_is_complex() {
 fn cube_corners_kept_on_request() {
     let mut pos: Vec<[f32; 3]> = Vec::new();
     for i in 0..8 {
-        pos.push([
-            (i & 1) as f32,
-            ((i >> 1) & 1) as f32,
-            ((i >> 2) & 1) as f32,
-        ]);
+        pos.push([(i & 1) as f32, ((i >> 1) & 1) as f32, ((i >> 2) & 1) as f32]);
     }
     // faces as CCW (from outside) corner quads
     let faces = [

@@ -39,7 +39,7 @@
 use crate::collapse::{BuildOptions, OperatorLimits, Surface};
 use crate::cost::{Placement, Qem, QemOptions};
 use crate::decimate::edge_collapse::{self, EdgeCollapseOptions};
-use crate::decimate::vertex_removal::{VertexRemoval, VertexRemovalOptions};
+use crate::decimate::vertex_removal::{TriangleLists, VertexRemoval, VertexRemovalOptions};
 use crate::decimate::{NoObserver, Observer, Rejections, StopRule};
 use crate::filter::{AspectRatio, Filter, LockBoundary, NormalDeviation};
 use crate::mesh::{Mesh, MeshError};
@@ -542,13 +542,10 @@ pub fn simplify_observed(
     })
 }
 
-/// Live triangles as wedge triples and point triples, with their groups.
-type OutputTriangles = (Vec<[u32; 3]>, Vec<[u32; 3]>, Option<Vec<u32>>);
-
 /// The surviving triangles over a compacted vertex buffer in first-use order.
 fn build_output(
     mesh: &Mesh,
-    (wedges, points, groups): OutputTriangles,
+    (wedges, points, groups): TriangleLists,
     surface: &mut Surface,
 ) -> (Mesh, Vec<u32>) {
     let mut remap = vec![u32::MAX; mesh.positions.len()];

@@ -91,6 +91,10 @@ use crate::metrics::triangle::closest_point;
 use crate::quadric::{cross, dot, sub};
 use serde::Serialize;
 
+/// Live triangles as wedge (input vertex) triples and point triples, with their
+/// groups (materials) when the input had groups.
+pub type TriangleLists = (Vec<[u32; 3]>, Vec<[u32; 3]>, Option<Vec<u32>>);
+
 /// Largest fan (number of triangles around a point) that is considered for removal.
 pub const MAX_VALENCE: usize = 63;
 
@@ -1291,7 +1295,7 @@ impl VertexRemoval {
 
     /// The live triangles as wedge triples and point triples, with their groups.
     #[must_use]
-    pub fn output_triangles(&self) -> (Vec<[u32; 3]>, Vec<[u32; 3]>, Option<Vec<u32>>) {
+    pub fn output_triangles(&self) -> TriangleLists {
         let mut wedges = Vec::with_capacity(self.live);
         let mut points = Vec::with_capacity(self.live);
         let mut groups = self.group.as_ref().map(|_| Vec::with_capacity(self.live));

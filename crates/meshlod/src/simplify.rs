@@ -23,6 +23,11 @@
 //! bounding-box diagonal. It is an estimate from the quadrics, not a Hausdorff
 //! distance (measure that with the metrics module).
 //!
+//! With [`Method::VertexRemoval`] step 3 is Schroeder's vertex decimation
+//! ([`crate::decimate::vertex_removal`]): no vertex moves, every output vertex is an
+//! input vertex with its attributes, and the error is the accumulated per-triangle
+//! bound described there (a distance from the input surface to the output).
+//!
 //! # Example
 //! ```
 //! use meshlod::mesh::generate;
@@ -366,7 +371,7 @@ pub enum SimplifyError {
 /// What [`simplify`] did.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct Report {
-    /// The method used (`"qem"`).
+    /// The method used (`"qem"`, `"vertex-removal"`).
     pub method: &'static str,
     /// Input triangles (before repair).
     pub triangles_in: usize,

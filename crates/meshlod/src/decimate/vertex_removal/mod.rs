@@ -1194,7 +1194,9 @@ impl VertexRemoval {
     }
 
     /// Removes points, cheapest first, until the stop rule holds or nothing can be
-    /// removed; returns what happened (`collapses` counts removed points).
+    /// removed; returns what happened (`collapses` counts removed points, `max_error`
+    /// is the largest accumulated bound of a performed removal). The observer sees
+    /// `started` and `progress`, not `collapsed` (a removal is not an edge collapse).
     pub fn run(&mut self, observer: &mut dyn Observer) -> Outcome {
         let stop = self.options.stop;
         let target = stop.target_triangles;

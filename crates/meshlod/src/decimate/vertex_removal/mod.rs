@@ -937,49 +937,64 @@ impl VertexRemoval {
                 });
                 continue;
             }
-            // Best split line.
-            let mut best: Option<(f64, usize, usize)> = None;
-            for i in 0..len {
-                let pi = poly[i] as usize;
-                let a = plan.pos[pi];
-                for j in i + 2..len {
-                    if i == 0 && j == len - 1 {
-                        continue;
-                    }
-                    let pj = poly[j] as usize;
-                    let d = sub(plan.pos[pj], a);
-                    let ld2 = dot(d, d);
-                    // Split-plane normal, unnormalised: |s| = |d| sin(d, n).
-                    let s = cross(d, n);
-                    let ls2 = dot(s, s);
-                    if ld2 == 0.0 || ls2 <= 1e-24 * ld2 {
-                        continue;
-                    }
-                    let mut min = f64::INFINITY;
-                    let mut ok = true;
-                    for (k, &pk) in poly.iter().enumerate() {
-                        if k == i || k == j {
+            // Best split line; existing edges are checked for the winner only (and
+            // the search repeated without it when it is one).
+            let mut forbid = [0u64; MAX_VALENCE + 1];
+            let best = loop {
+                let mut best: Option<(f64, usize, usize)> = None;
+                for i in 0..len {
+                    let pi = poly[i] as usize;
+                    let a = plan.pos[pi];
+                    for j in i + 2..len {
+                        if i == 0 && j == len - 1 {
                             continue;
                         }
-                        let dist = dot(sub(plan.pos[pk as usize], a), s);
-                        let inside = k > i && k < j;
-                        let signed = if inside { dist } else { -dist };
-                        if signed <= 0.0 {
-                            ok = false;
-                            break;
+                        let pj = poly[j] as usize;
+                        if forbid[i] & (1u64 << j) != 0 {
+                            continue;
                         }
-                        min = min.min(signed);
-                    }
-                    if !ok {
-                        continue;
-                    }
-                    // aspect = (min / |s|) / |d|, compared squared (no square roots).
-                    let aspect2 = min * min / (ls2 * ld2);
-                    if best.is_none_or(|b| aspect2 > b.0) && !plan.adjacent(&links, pi, pj) {
-                        best = Some((aspect2, i, j));
+                        let d = sub(plan.pos[pj], a);
+                        let ld2 = dot(d, d);
+                        // Split-plane normal, unnormalised: |s| = |d| sin(d, n).
+                        let s = cross(d, n);
+                        let ls2 = dot(s, s);
+                        if ld2 == 0.0 || ls2 <= 1e-24 * ld2 {
+                            continue;
+                        }
+                        let mut min = f64::INFINITY;
+                        let mut ok = true;
+                        for (k, &pk) in poly.iter().enumerate() {
+                            if k == i || k == j {
+                                continue;
+                            }
+                            let dist = dot(sub(plan.pos[pk as usize], a), s);
+                            let inside = k > i && k < j;
+                            let signed = if inside { dist } else { -dist };
+                            if signed <= 0.0 {
+                                ok = false;
+                                break;
+                            }
+                            min = min.min(signed);
+                        }
+                        if !ok {
+                            continue;
+                        }
+                        // aspect = (min / |s|) / |d|, compared squared (no square roots).
+                        let aspect2 = min * min / (ls2 * ld2);
+                        if best.is_none_or(|b| aspect2 > b.0) {
+                            best = Some((aspect2, i, j));
+                        }
                     }
                 }
-            }
+                match best {
+                    Some((_, i, j))
+                        if plan.adjacent(&links, poly[i] as usize, poly[j] as usize) =>
+                    {
+                        forbid[i] |= 1u64 << j;
+                    }
+                    _ => break best,
+                }
+            };
             let Some((_, i, j)) = best else {
                 return Err(Refusal::NoSplit);
             };

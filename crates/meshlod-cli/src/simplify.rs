@@ -1,7 +1,7 @@
 //! `meshlod simplify IN -o OUT [--ratio R | --triangles N] [--max-error E]
-//! [--method qem|cluster] [--lock-boundary] [--pair-threshold T] [--json]`;
+//! [--method qem|cluster|vertex-removal] [--lock-boundary] [--pair-threshold T] [--json]`;
 //! vertex clustering adds `[--cell-size E] [--representative quadric|average|weighted]
-//! [--stream]`.
+//! [--stream]`, vertex removal `[--feature-angle DEG] [--keep-corners]`.
 //!
 //! Reads with `meshlod::io::read_scene`, simplifies, writes with `write_scene`. A glTF
 //! input written back as glTF keeps its scene: each part (glTF mesh) is simplified
@@ -12,6 +12,9 @@
 //! (`--absolute`: in mesh units). The distance of a collapse is `sqrt(Δ/W)`, the
 //! quadric error `Δ` of the new vertex over the area weight `W` accumulated in its
 //! quadric: the area-weighted RMS distance to the original planes it replaces.
+//! With `--method vertex-removal` it is the accumulated error bound of
+//! `meshlod::decimate::vertex_removal` (a distance from the input surface to the
+//! output triangle that replaced it).
 
 use anyhow::{bail, Context, Result};
 use indicatif::{ProgressBar, ProgressStyle};
@@ -70,6 +73,14 @@ pub struct SimplifyArgs {
     /// Minimum quality of new triangles (0 disables the sliver guard; default 0.1).
     #[arg(long, value_name = "Q")]
     pub min_quality: Option<f64>,
+    /// vertex-removal: dihedral angle in degrees above which an edge is a feature
+    /// (default 15).
+    #[arg(long, value_name = "DEG")]
+    pub feature_angle: Option<f64>,
+    /// vertex-removal: never remove corner vertices (one or more than two feature
+    /// edges).
+    #[arg(long)]
+    pub keep_corners: bool,
     /// Write ASCII where the format has a choice (PLY, STL).
     #[arg(long)]
     pub ascii: bool,
@@ -114,6 +125,9 @@ pub enum MethodArg {
     Qem,
     /// Vertex clustering on a uniform grid (Rossignac & Borrel; Lindstrom).
     Cluster,
+    /// Schroeder vertex decimation: vertex removal, split-plane hole triangulation;
+    /// output vertices are input vertices.
+    VertexRemoval,
 }
 
 /// The JSON report.
@@ -193,6 +207,7 @@ fn options(args: &SimplifyArgs) -> Result<SimplifyOptions> {
     let mut o = SimplifyOptions::default().with_method(match args.method {
         MethodArg::Qem => Method::Qem,
         MethodArg::Cluster => Method::Cluster,
+        MethodArg::VertexRemoval => Method::VertexRemoval,
     });
     if args.method != MethodArg::Cluster
         && (args.stream
@@ -237,6 +252,13 @@ fn options(args: &SimplifyArgs) -> Result<SimplifyOptions> {
     if let Some(q) = args.min_quality {
         o = o.with_min_triangle_quality(q);
     }
+    if let Some(a) = args.feature_angle {
+        if !(0.0..=180.0).contains(&a) {
+            bail!("--feature-angle {a} is not in [0, 180]");
+        }
+        o = o.with_feature_angle(a);
+    }
+    o = o.with_keep_corners(args.keep_corners);
     Ok(o.with_lock_boundary(args.lock_boundary))
 }
 

@@ -213,3 +213,53 @@ fn gltf_parts_are_simplified_separately() {
             / 3
     );
 }
+
+/// `--method vertex-removal` with its options: the target is reached, the report
+/// names the method, and every output position is an input position.
+#[test]
+fn vertex_removal_method() {
+    let dir = tempfile::tempdir().unwrap();
+    let input = torus_file(dir.path());
+    let output = dir.path().join("out.ply");
+    let (i, o) = (input.to_str().unwrap(), output.to_str().unwrap());
+    for extra in [&[][..], &["--feature-angle", "30", "--keep-corners"][..]] {
+        let mut args = vec![
+            "simplify",
+            i,
+            "-o",
+            o,
+            "--method",
+            "vertex-removal",
+            "--triangles",
+            "500",
+            "--json",
+        ];
+        args.extend_from_slice(extra);
+        let j = json(&meshlod(&args));
+        assert_eq!(j["method"], "vertex-removal");
+        assert_eq!(j["triangles_out"], 500);
+        assert_eq!(j["stop_reason"], "target_reached");
+        let input_positions: std::collections::HashSet<[u32; 3]> =
+            generate::torus(48, 24, 2.0, 0.6)
+                .positions
+                .iter()
+                .map(|p| p.map(f32::to_bits))
+                .collect();
+        let m = read_scene(&output).expect("output readable").flatten();
+        assert!(m
+            .positions
+            .iter()
+            .all(|p| input_positions.contains(&p.map(f32::to_bits))));
+    }
+    let bad = meshlod(&[
+        "simplify",
+        i,
+        "-o",
+        o,
+        "--method",
+        "vertex-removal",
+        "--feature-angle",
+        "200",
+    ]);
+    assert!(!bad.status.success());
+}

@@ -10,7 +10,8 @@
 //! - [`mesh`]: the in-memory [`Mesh`], welding, connectivity, statistics;
 //! - [`io`]: OBJ, PLY, STL, OFF, glTF/GLB and Hoppe `.m` readers and writers;
 //! - [`metrics`]: closest points (BVH), Hausdorff / mean / RMS distances, screen-space error;
-//! - [`simplify()`]: the public simplification entry point (QEM edge collapse);
+//! - [`simplify()`]: the public simplification entry point (QEM edge collapse, vertex
+//!   removal);
 //! - [`quadric`]: quadric error metrics;
 //! - [`collapse`]: the edge-collapse operator and its legality checks;
 //! - [`cost`]: cost models (what to collapse first); [`filter`]: vetoes;

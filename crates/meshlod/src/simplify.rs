@@ -23,6 +23,11 @@
 //! bounding-box diagonal. It is an estimate from the quadrics, not a Hausdorff
 //! distance (measure that with the metrics module).
 //!
+//! With [`Method::VertexRemoval`] step 3 is Schroeder's vertex decimation
+//! ([`crate::decimate::vertex_removal`]): no vertex moves, every output vertex is an
+//! input vertex with its attributes, and the error is the accumulated per-triangle
+//! bound described there (a distance from the input surface to the output).
+//!
 //! # Example
 //! ```
 //! use meshlod::mesh::generate;
@@ -42,6 +47,7 @@ use crate::decimate::cluster::{
     cluster_file, cluster_mesh, ClusterError, ClusterOptions, ClusterStats, Clustered,
 };
 use crate::decimate::edge_collapse::{self, EdgeCollapseOptions};
+use crate::decimate::vertex_removal::{TriangleLists, VertexRemoval, VertexRemovalOptions};
 use crate::decimate::{NoObserver, Observer, Rejections, StopRule};
 use crate::filter::{AspectRatio, Filter, LockBoundary, NormalDeviation};
 use crate::mesh::{Mesh, MeshError};
@@ -62,6 +68,11 @@ pub enum Method {
     /// representatives after Lindstrom 2000): O(n), may change the topology. See
     /// [`crate::decimate::cluster`] and [`SimplifyOptions::cluster`].
     Cluster,
+    /// Schroeder vertex decimation: vertex removal with split-plane hole
+    /// triangulation and accumulated error (Schroeder, Zarge & Lorensen 1992;
+    /// `vtkDecimatePro`). Every output vertex is an input vertex, unmoved. See
+    /// [`crate::decimate::vertex_removal`].
+    VertexRemoval,
 }
 
 impl Method {
@@ -71,6 +82,7 @@ impl Method {
         match self {
             Self::Qem => "qem",
             Self::Cluster => "cluster",
+            Self::VertexRemoval => "vertex-removal",
         }
     }
 }
@@ -149,6 +161,14 @@ pub struct SimplifyOptions {
     /// Options of [`Method::Cluster`] (cell size, representative, weights). With a
     /// cell size the targets are ignored. Default [`ClusterOptions::default`].
     pub cluster: ClusterOptions,
+    /// [`Method::VertexRemoval`]: a spoke whose two triangles meet at a dihedral
+    /// angle above this many degrees is a feature edge (creases are kept as edges,
+    /// points on them measured by their distance to the crease line). Default `15.0`.
+    pub feature_angle: f64,
+    /// [`Method::VertexRemoval`]: never remove corner points (one or more than two
+    /// feature edges). Default `false` (corners go by their distance to the average
+    /// plane, as in `vtkDecimate`).
+    pub keep_corners: bool,
 }
 
 impl Default for SimplifyOptions {
@@ -167,6 +187,8 @@ impl Default for SimplifyOptions {
             min_triangle_quality: 0.1,
             placement: Placement::Optimal,
             cluster: ClusterOptions::default(),
+            feature_angle: crate::decimate::vertex_removal::DEFAULT_FEATURE_ANGLE,
+            keep_corners: false,
         }
     }
 }
@@ -250,6 +272,18 @@ impl SimplifyOptions {
         self.cluster = c;
         self
     }
+    /// Sets [`Self::feature_angle`] (degrees).
+    #[must_use]
+    pub fn with_feature_angle(mut self, degrees: f64) -> Self {
+        self.feature_angle = degrees;
+        self
+    }
+    /// Sets [`Self::keep_corners`].
+    #[must_use]
+    pub fn with_keep_corners(mut self, keep: bool) -> Self {
+        self.keep_corners = keep;
+        self
+    }
 
     /// The target triangle count for an input of `triangles` triangles.
     #[must_use]
@@ -304,6 +338,12 @@ impl SimplifyOptions {
                 );
             }
         }
+        if !(0.0..=180.0).contains(&self.feature_angle) {
+            return bad(
+                "feature_angle",
+                format!("{} is not in [0, 180] degrees", self.feature_angle),
+            );
+        }
         if !(0.0..=1.0).contains(&self.min_triangle_quality) {
             return bad(
                 "min_triangle_quality",
@@ -349,7 +389,7 @@ pub enum SimplifyError {
 /// What [`simplify`] did.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct Report {
-    /// The method used (`"qem"`).
+    /// The method used (`"qem"`, `"vertex-removal"`).
     pub method: &'static str,
     /// Input triangles (before repair).
     pub triangles_in: usize,
@@ -480,7 +520,7 @@ pub fn simplify_observed(
     if let Some(f) = &aspect {
         filters.push(f);
     }
-    let outcome = match options.method {
+    let (outcome, triangles) = match options.method {
         Method::Cluster => unreachable!("handled above"),
         Method::Qem => {
             let qo = QemOptions {
@@ -489,10 +529,25 @@ pub fn simplify_observed(
                 ..QemOptions::default()
             };
             let mut qem = Qem::new(qo);
-            edge_collapse::run(&mut surface, &mut qem, &filters, &driver_options, observer)
+            let outcome =
+                edge_collapse::run(&mut surface, &mut qem, &filters, &driver_options, observer);
+            (outcome, surface.output_triangles())
+        }
+        Method::VertexRemoval => {
+            let mut vr = VertexRemoval::new(
+                &surface,
+                VertexRemovalOptions {
+                    feature_angle: options.feature_angle,
+                    keep_corners: options.keep_corners,
+                    lock_boundary: options.lock_boundary,
+                    stop: driver_options.stop,
+                },
+            );
+            let outcome = vr.run(observer);
+            (outcome, vr.output_triangles())
         }
     };
-    let (out, vertex_source) = build_output(mesh, &mut surface);
+    let (out, vertex_source) = build_output(mesh, triangles, &mut surface);
     let report = Report {
         method: options.method.name(),
         triangles_in: mesh.triangles.len(),
@@ -637,8 +692,11 @@ fn cluster_result(
 }
 
 /// The surviving triangles over a compacted vertex buffer in first-use order.
-fn build_output(mesh: &Mesh, surface: &mut Surface) -> (Mesh, Vec<u32>) {
-    let (wedges, points, groups) = surface.output_triangles();
+fn build_output(
+    mesh: &Mesh,
+    (wedges, points, groups): TriangleLists,
+    surface: &mut Surface,
+) -> (Mesh, Vec<u32>) {
     let mut remap = vec![u32::MAX; mesh.positions.len()];
     let mut source = Vec::new();
     let mut positions = Vec::new();
@@ -740,3 +798,5 @@ fn close_pairs(surface: &mut Surface, t: f64) -> Vec<[u32; 2]> {
 
 #[cfg(test)]
 mod tests;
+#[cfg(test)]
+mod tests_vertex_removal;

@@ -173,6 +173,14 @@ impl Heap {
         self.heapify_keys();
     }
 
+    /// The cost bits of the cheapest item, if any (stale ones included).
+    pub(crate) fn peek_cost_bits(&mut self) -> Option<u32> {
+        if self.keys.is_empty() {
+            self.refill();
+        }
+        self.keys.first().map(|&k| (k >> 32) as u32)
+    }
+
     /// Removes and returns the cheapest item.
     pub(crate) fn pop(&mut self) -> Option<Item> {
         if self.keys.is_empty() {

@@ -7,11 +7,14 @@
 //! invalidation, until the [`StopRule`] holds; it reports through an [`Observer`]
 //! and returns an [`Outcome`] that says why it stopped. [`cluster`] is vertex
 //! clustering (Rossignac & Borrel 1993, Lindstrom 2000): one pass over a grid, in
-//! memory or streamed from a file.
+//! memory or streamed from a file. [`vertex_removal`] is
+//! Schroeder's vertex decimation (its own operator: remove a point, re-triangulate
+//! the hole) with the same queue, stop rules and outcome.
 
 pub mod cluster;
 pub mod edge_collapse;
 mod heap;
+pub mod vertex_removal;
 
 use crate::collapse::CollapseRecord;
 use serde::Serialize;

@@ -8,8 +8,8 @@
 //!    (both counted in the report);
 //! 3. **decimate** with the edge-collapse driver ([`crate::decimate::edge_collapse`]):
 //!    the cost model of [`SimplifyOptions::method`] (quadric error metric,
-//!    [`crate::cost::Qem`]), the always-on collapse operator, and the filters the
-//!    options ask for;
+//!    [`crate::cost::Qem`], or Melax's edge cost, [`crate::cost::Melax`]), the
+//!    always-on collapse operator, and the filters the options ask for;
 //! 4. **output**: the surviving triangles over a compacted vertex buffer (first-use
 //!    order), attributes interpolated at moved vertices, groups kept.
 //!
@@ -21,7 +21,9 @@
 //! for (see [`crate::quadric`]). The report gives the largest such value over all
 //! collapses performed, both in mesh units and as a fraction of the input's
 //! bounding-box diagonal. It is an estimate from the quadrics, not a Hausdorff
-//! distance (measure that with the metrics module).
+//! distance (measure that with the metrics module). With [`Method::Melax`] the error
+//! of a collapse is its Melax cost (edge length × curvature term, see
+//! [`crate::cost::Melax`]).
 //!
 //! # Example
 //! ```
@@ -37,7 +39,7 @@
 //! ```
 
 use crate::collapse::{BuildOptions, OperatorLimits, Surface};
-use crate::cost::{Placement, Qem, QemOptions};
+use crate::cost::{Melax, Placement, Qem, QemOptions};
 use crate::decimate::edge_collapse::{self, EdgeCollapseOptions};
 use crate::decimate::{NoObserver, Observer, Rejections, StopRule};
 use crate::filter::{AspectRatio, Filter, LockBoundary, NormalDeviation};
@@ -55,6 +57,9 @@ pub enum Method {
     /// Quadric error metric edge collapse (Garland & Heckbert 1997).
     #[default]
     Qem,
+    /// Melax's directional edge cost, half-edge collapses only (Melax 1998): no
+    /// vertex ever moves, so the result's positions are a subset of the input's.
+    Melax,
 }
 
 impl Method {
@@ -63,6 +68,7 @@ impl Method {
     pub fn name(self) -> &'static str {
         match self {
             Self::Qem => "qem",
+            Self::Melax => "melax",
         }
     }
 }
@@ -457,6 +463,10 @@ pub fn simplify_observed(
             };
             let mut qem = Qem::new(qo);
             edge_collapse::run(&mut surface, &mut qem, &filters, &driver_options, observer)
+        }
+        Method::Melax => {
+            let mut melax = Melax::default();
+            edge_collapse::run(&mut surface, &mut melax, &filters, &driver_options, observer)
         }
     };
     let (out, vertex_source) = build_output(mesh, &mut surface);

@@ -1,5 +1,5 @@
 //! `meshlod simplify IN -o OUT [--ratio R | --triangles N] [--max-error E]
-//! [--method qem] [--lock-boundary] [--pair-threshold T] [--json]`.
+//! [--method qem|melax] [--placement optimal|endpoint|midpoint] [--lock-boundary] [--pair-threshold T] [--json]`.
 //!
 //! Reads with `meshlod::io::read_scene`, simplifies, writes with `write_scene`. A glTF
 //! input written back as glTF keeps its scene: each part (glTF mesh) is simplified
@@ -48,6 +48,10 @@ pub struct SimplifyArgs {
     /// Simplification method.
     #[arg(long, value_enum, default_value_t = MethodArg::Qem)]
     pub method: MethodArg,
+    /// Where QEM places a merged vertex (`endpoint`: half-edge collapses, as
+    /// `meshlod pm build --method qem` records).
+    #[arg(long, value_enum)]
+    pub placement: Option<PlacementArg>,
     /// Never move or remove a boundary vertex.
     #[arg(long)]
     pub lock_boundary: bool,
@@ -84,6 +88,19 @@ pub struct SimplifyArgs {
 pub enum MethodArg {
     /// Quadric error metric edge collapse (Garland & Heckbert).
     Qem,
+    /// Melax's edge cost, half-edge collapses (no vertex moves).
+    Melax,
+}
+
+/// `--placement` values (QEM).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum PlacementArg {
+    /// The quadric minimiser (default).
+    Optimal,
+    /// The better endpoint: half-edge collapses, no vertex moves.
+    Endpoint,
+    /// The edge midpoint.
+    Midpoint,
 }
 
 /// The JSON report.
@@ -153,7 +170,15 @@ fn options(args: &SimplifyArgs) -> Result<SimplifyOptions> {
     };
     let mut o = SimplifyOptions::default().with_method(match args.method {
         MethodArg::Qem => Method::Qem,
+        MethodArg::Melax => Method::Melax,
     });
+    if let Some(p) = args.placement {
+        o = o.with_placement(match p {
+            PlacementArg::Optimal => meshlod::cost::Placement::Optimal,
+            PlacementArg::Endpoint => meshlod::cost::Placement::Endpoint,
+            PlacementArg::Midpoint => meshlod::cost::Placement::Midpoint,
+        });
+    }
     if let Some(r) = args.ratio {
         if !(0.0..=1.0).contains(&r) {
             bail!("--ratio {r} is not in [0, 1]");

@@ -466,7 +466,13 @@ pub fn simplify_observed(
         }
         Method::Melax => {
             let mut melax = Melax::default();
-            edge_collapse::run(&mut surface, &mut melax, &filters, &driver_options, observer)
+            edge_collapse::run(
+                &mut surface,
+                &mut melax,
+                &filters,
+                &driver_options,
+                observer,
+            )
         }
     };
     let (out, vertex_source) = build_output(mesh, &mut surface);

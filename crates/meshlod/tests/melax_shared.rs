@@ -132,5 +132,10 @@ fn melax_keeps_invariants_on_the_shared_set() {
         done += 1;
     }
     eprintln!("checked {done} meshes");
-    assert!(failures.is_empty(), "{} failures:\n{}", failures.len(), failures.join("\n"));
+    assert!(
+        failures.is_empty(),
+        "{} failures:\n{}",
+        failures.len(),
+        failures.join("\n")
+    );
 }

@@ -82,8 +82,14 @@ fn progressive_meshes_reproduce_the_shared_set() {
         let want = canonical(&repaired);
         let is_deep = deep.iter().any(|d| row.file.ends_with(d));
         let methods: &[(&str, SimplifyOptions)] = &[
-            ("melax", SimplifyOptions::default().with_method(Method::Melax)),
-            ("qem", SimplifyOptions::default().with_placement(Placement::Endpoint)),
+            (
+                "melax",
+                SimplifyOptions::default().with_method(Method::Melax),
+            ),
+            (
+                "qem",
+                SimplifyOptions::default().with_placement(Placement::Endpoint),
+            ),
         ];
         for (name, o) in methods {
             // QEM on the small ones only (the Melax run covers the big ones).
@@ -100,7 +106,9 @@ fn progressive_meshes_reproduce_the_shared_set() {
             };
             let mut nav = Navigator::new(&pm);
             if canonical(&nav.to_mesh()) != want {
-                failures.push(format!("{tag}: finest level differs from the repaired input"));
+                failures.push(format!(
+                    "{tag}: finest level differs from the repaired input"
+                ));
             }
             let bytes = pm.to_bytes();
             match ProgressiveMesh::from_bytes(&bytes) {
@@ -113,7 +121,8 @@ fn progressive_meshes_reproduce_the_shared_set() {
             }
             let n0 = repaired.triangles.len();
             for target in [n0 / 10, n0 / 100] {
-                let (direct, _) = simplify(&mesh, &o.clone().with_target_triangles(target)).unwrap();
+                let (direct, _) =
+                    simplify(&mesh, &o.clone().with_target_triangles(target)).unwrap();
                 nav.set_triangles(target);
                 if canonical(&nav.to_mesh()) != canonical(&direct) {
                     failures.push(format!("{tag}: extracting {target} differs from simplify"));

@@ -68,26 +68,46 @@ impl Default for MelaxOptions {
 }
 
 /// Melax's directional edge cost; always proposes half-edge collapses.
-#[derive(Debug, Clone, Copy, Default)]
+///
+/// State: the unit normal of every triangle slot, refreshed around the survivor
+/// after each collapse (before [`CostModel::init`] normals are computed on demand).
+#[derive(Debug, Clone, Default)]
 pub struct Melax {
     options: MelaxOptions,
+    normals: Vec<[f64; 3]>,
+}
+
+/// Unit normal of triangle `t` (zero when degenerate).
+fn unit_normal(surface: &Surface, t: u32) -> [f64; 3] {
+    let [a, b, c] = surface.triangle(t).map(|p| surface.local(p));
+    let n = cross(sub(b, a), sub(c, a));
+    let l = dot(n, n).sqrt();
+    if l > 0.0 {
+        [n[0] / l, n[1] / l, n[2] / l]
+    } else {
+        [0.0; 3]
+    }
 }
 
 impl Melax {
     /// A Melax cost model with `options`.
     #[must_use]
     pub fn new(options: MelaxOptions) -> Self {
-        Self { options }
+        Self {
+            options,
+            normals: Vec::new(),
+        }
     }
 
     /// The cost of removing `u` onto `v`, or `None` when they share no triangle.
     #[must_use]
     pub fn cost(&self, surface: &Surface, u: u32, v: u32) -> Option<f64> {
         let unit = |t: u32| -> Option<[f64; 3]> {
-            let [a, b, c] = surface.triangle(t).map(|p| surface.local(p));
-            let n = cross(sub(b, a), sub(c, a));
-            let l = dot(n, n).sqrt();
-            (l > 0.0).then(|| [n[0] / l, n[1] / l, n[2] / l])
+            let n = match self.normals.get(t as usize) {
+                Some(n) => *n,
+                None => unit_normal(surface, t),
+            };
+            (n != [0.0; 3]).then_some(n)
         };
         // T(u, v): at most two on a manifold edge, kept inline.
         let mut shared = [[0.0f64; 3]; 4];
@@ -141,11 +161,10 @@ impl Melax {
                 if tt.contains(&v) {
                     continue;
                 }
-                let [a, b, c] = tt.map(|p| surface.local(p));
-                let n0 = cross(sub(b, a), sub(c, a));
+                let Some(n0) = unit(t) else { continue };
                 let [a2, b2, c2] = tt.map(|p| if p == u { pv } else { surface.local(p) });
                 let n1 = cross(sub(b2, a2), sub(c2, a2));
-                let l = (dot(n0, n0) * dot(n1, n1)).sqrt();
+                let l = dot(n1, n1).sqrt();
                 if l > 0.0 {
                     let turn = (1.0 - dot(n0, n1) / l) * 0.5;
                     curvature = curvature.max(self.options.turn_weight * turn);
@@ -184,7 +203,17 @@ impl CostModel for Melax {
         "melax"
     }
 
-    fn init(&mut self, _surface: &Surface) {}
+    fn init(&mut self, surface: &Surface) {
+        self.normals = (0..surface.triangle_slots() as u32)
+            .map(|t| {
+                if surface.triangle(t)[0] == crate::collapse::DEAD {
+                    [0.0; 3]
+                } else {
+                    unit_normal(surface, t)
+                }
+            })
+            .collect();
+    }
 
     fn evaluate(&self, surface: &Surface, a: u32, b: u32, moves: &Moves) -> Option<Candidate> {
         let mut best: Option<Candidate> = None;
@@ -203,14 +232,24 @@ impl CostModel for Melax {
                 error: cost,
             };
             // Cheaper first; on a tie remove the larger id (deterministic).
-            if best.is_none_or(|x| (cand.cost, std::cmp::Reverse(cand.removed)) < (x.cost, std::cmp::Reverse(x.removed))) {
+            if best.is_none_or(|x| {
+                (cand.cost, std::cmp::Reverse(cand.removed))
+                    < (x.cost, std::cmp::Reverse(x.removed))
+            }) {
                 best = Some(cand);
             }
         }
         best
     }
 
-    fn collapsed(&mut self, _surface: &Surface, _record: &CollapseRecord) {}
+    fn collapsed(&mut self, surface: &Surface, record: &CollapseRecord) {
+        if self.normals.is_empty() {
+            return;
+        }
+        for &t in surface.fan(record.kept) {
+            self.normals[t as usize] = unit_normal(surface, t);
+        }
+    }
 }
 
 #[cfg(test)]
@@ -277,8 +316,11 @@ mod tests {
             border_weight: 0.0,
             ..MelaxOptions::default()
         })
-            .cost(&s, 0, 1)
-            .expect("edge");
-        assert!(c0.abs() < 1e-12, "without the border rule the flat corner is free: {c0}");
+        .cost(&s, 0, 1)
+        .expect("edge");
+        assert!(
+            c0.abs() < 1e-12,
+            "without the border rule the flat corner is free: {c0}"
+        );
     }
 }

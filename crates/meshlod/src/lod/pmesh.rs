@@ -487,11 +487,17 @@ type Base = (ProgressiveMesh, Vec<[u32; 3]>, u8, usize);
 fn header_and_base(r: &mut Reader<'_>) -> R<Base> {
     let magic: [u8; 4] = r.take(4, "magic")?.try_into().unwrap_or([0; 4]);
     if magic != PMESH_MAGIC {
-        return r.bad(0, format!("not a .pmesh file (magic {magic:?}, expected \"MLPM\")"));
+        return r.bad(
+            0,
+            format!("not a .pmesh file (magic {magic:?}, expected \"MLPM\")"),
+        );
     }
     let version = r.u16("version")?;
     if version != PMESH_VERSION {
-        return r.bad(4, format!("unsupported version {version} (this reader knows {PMESH_VERSION})"));
+        return r.bad(
+            4,
+            format!("unsupported version {version} (this reader knows {PMESH_VERSION})"),
+        );
     }
     let flags = r.u16("flags")?;
     if flags > 1 {
@@ -556,7 +562,10 @@ fn header_and_base(r: &mut Reader<'_>) -> R<Base> {
         let at = r.pos;
         let p = r.varint("wedge point")?;
         if p as usize >= bp {
-            return r.bad(at, format!("wedge point {p} out of range ({bp} base points)"));
+            return r.bad(
+                at,
+                format!("wedge point {p} out of range ({bp} base points)"),
+            );
         }
         pm.wedge_point.push(p);
         r.attrs(&mut pm.attributes)?;
@@ -567,7 +576,10 @@ fn header_and_base(r: &mut Reader<'_>) -> R<Base> {
         for w in &mut t {
             *w = r.varint("triangle wedge")?;
             if *w as usize >= bw {
-                return r.bad(at, format!("triangle wedge {w} out of range ({bw} base wedges)"));
+                return r.bad(
+                    at,
+                    format!("triangle wedge {w} out of range ({bw} base wedges)"),
+                );
             }
         }
         let p = t.map(|w| pm.wedge_point[w as usize]);
@@ -589,12 +601,7 @@ fn header_and_base(r: &mut Reader<'_>) -> R<Base> {
 }
 
 /// Reads, checks and applies split `k`; `cur` holds every triangle's current wedges.
-fn split(
-    r: &mut Reader<'_>,
-    pm: &mut ProgressiveMesh,
-    cur: &mut Vec<[u32; 3]>,
-    mask: u8,
-) -> R<()> {
+fn split(r: &mut Reader<'_>, pm: &mut ProgressiveMesh, cur: &mut Vec<[u32; 3]>, mask: u8) -> R<()> {
     let p = pm.positions.len() as u32;
     let t0 = cur.len() as u32;
     let at = r.pos;
@@ -630,7 +637,10 @@ fn split(
         let at = r.pos;
         let c = r.varint("moved corner")?;
         if c >= 3 * t0 {
-            return r.bad(at, format!("moved corner {c} out of range ({t0} triangles)"));
+            return r.bad(
+                at,
+                format!("moved corner {c} out of range ({t0} triangles)"),
+            );
         }
         let w = wedge_ref(r, "moved-corner wedge")?;
         moved.push((at, c, w));
@@ -638,7 +648,10 @@ fn split(
     let at = r.pos;
     let nt = r.varint("new-triangle count")?;
     if !(1..=2).contains(&nt) {
-        return r.bad(at, format!("{nt} new triangles (a vertex split adds 1 or 2)"));
+        return r.bad(
+            at,
+            format!("{nt} new triangles (a vertex split adds 1 or 2)"),
+        );
     }
     for _ in 0..nt {
         let at = r.pos;

@@ -274,9 +274,7 @@ impl ProgressiveMesh {
         );
         self.positions.truncate(self.base_points as usize + k);
         self.wedge_point.truncate(w);
-        self.attributes = self
-            .attributes
-            .gather(&(0..w as u32).collect::<Vec<_>>());
+        self.attributes = self.attributes.gather(&(0..w as u32).collect::<Vec<_>>());
         self.triangles.truncate(t);
         if let Some(g) = &mut self.groups {
             g.truncate(t);
@@ -365,23 +363,20 @@ fn finish(mesh: &Mesh, base: &Mesh, source: &[u32], rec: &Recorder) -> Progressi
     };
     let mut wedge_src: Vec<u32> = Vec::new();
     // Assigns PM ids to input wedge `w` (and its point) on first use.
-    let mut use_wedge = |w: u32,
-                         pm: &mut ProgressiveMesh,
-                         pm_point: &mut [u32],
-                         wedge_src: &mut Vec<u32>|
-     -> u32 {
-        let p = point_of[w as usize] as usize;
-        if pm_point[p] == DEAD {
-            pm_point[p] = pm.positions.len() as u32;
-            pm.positions.push(mesh.positions[w as usize]);
-        }
-        if pm_wedge[w as usize] == DEAD {
-            pm_wedge[w as usize] = pm.wedge_point.len() as u32;
-            pm.wedge_point.push(pm_point[p]);
-            wedge_src.push(w);
-        }
-        pm_wedge[w as usize]
-    };
+    let mut use_wedge =
+        |w: u32, pm: &mut ProgressiveMesh, pm_point: &mut [u32], wedge_src: &mut Vec<u32>| -> u32 {
+            let p = point_of[w as usize] as usize;
+            if pm_point[p] == DEAD {
+                pm_point[p] = pm.positions.len() as u32;
+                pm.positions.push(mesh.positions[w as usize]);
+            }
+            if pm_wedge[w as usize] == DEAD {
+                pm_wedge[w as usize] = pm.wedge_point.len() as u32;
+                pm.wedge_point.push(pm_point[p]);
+                wedge_src.push(w);
+            }
+            pm_wedge[w as usize]
+        };
     for (i, t) in base.triangles.iter().enumerate() {
         let tw = t.map(|v| use_wedge(source[v as usize], &mut pm, &mut pm_point, &mut wedge_src));
         pm.triangles.push(tw);
@@ -414,8 +409,16 @@ fn finish(mesh: &Mesh, base: &Mesh, source: &[u32], rec: &Recorder) -> Progressi
     let n = rec.removed.len();
     for c in (0..n).rev() {
         let (u, v) = (rec.removed[c], rec.kept[c]);
-        let d0 = if c == 0 { 0 } else { rec.dying_end[c - 1] as usize };
-        let m0 = if c == 0 { 0 } else { rec.moved_end[c - 1] as usize };
+        let d0 = if c == 0 {
+            0
+        } else {
+            rec.dying_end[c - 1] as usize
+        };
+        let m0 = if c == 0 {
+            0
+        } else {
+            rec.moved_end[c - 1] as usize
+        };
         let dying = &rec.dying[d0..rec.dying_end[c] as usize];
         let moved = &rec.moved[m0..rec.moved_end[c] as usize];
         // The new point first, so it takes id base_points + k.

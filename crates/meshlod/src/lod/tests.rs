@@ -82,7 +82,11 @@ fn check_pm(mesh: &Mesh, options: &SimplifyOptions) -> ProgressiveMesh {
     assert_eq!(pm.split_count(), report.collapses);
     assert_eq!(pm.base_triangle_count(), report.triangles_out);
     let mut nav = Navigator::new(&pm);
-    assert_eq!(canonical(&nav.to_mesh()), canonical(&repaired), "finest level");
+    assert_eq!(
+        canonical(&nav.to_mesh()),
+        canonical(&repaired),
+        "finest level"
+    );
     nav.set_level(0);
     assert_eq!(nav.triangle_count(), pm.base_triangle_count());
     let n0 = repaired.triangles.len();
@@ -105,7 +109,11 @@ fn icosphere_melax_and_qem_endpoint_reproduce_and_extract() {
     let m = generate::icosphere(3);
     let pm = check_pm(&m, &melax_full());
     // A closed genus-0 surface goes down to a handful of triangles.
-    assert!(pm.base_triangle_count() <= 8, "{}", pm.base_triangle_count());
+    assert!(
+        pm.base_triangle_count() <= 8,
+        "{}",
+        pm.base_triangle_count()
+    );
     check_pm(&m, &qem_full());
 }
 
@@ -168,7 +176,9 @@ fn navigation_both_ways_matches_fresh_extraction() {
     let s = pm.split_count();
     let mut x: u64 = 12345;
     for _ in 0..40 {
-        x = x.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+        x = x
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
         let level = (x >> 33) as usize % (s + 1);
         nav.set_level(level);
         assert_eq!(nav.level(), level);
@@ -245,7 +255,9 @@ fn every_prefix_decodes_or_errors_cleanly() {
                 assert_valid(&mesh);
                 assert_eq!(canonical(&mesh), canonical(&pm.mesh_at(k)));
             }
-            Err(PmError::Format { offset, message, .. }) => {
+            Err(PmError::Format {
+                offset, message, ..
+            }) => {
                 assert!(offset <= n, "offset {offset} past the cut {n}: {message}");
                 assert!(!message.is_empty());
             }

@@ -7,6 +7,7 @@
 mod heatmap;
 mod info;
 mod measure;
+mod pm;
 mod simplify;
 
 use clap::{Parser, Subcommand};
@@ -29,6 +30,9 @@ enum Command {
     Measure(measure::MeasureArgs),
     /// Simplify a mesh (quadric error metric edge collapse) and print a report.
     Simplify(simplify::SimplifyArgs),
+    /// Progressive meshes: build a .pmesh, extract a level.
+    #[command(subcommand)]
+    Pm(pm::PmCommand),
 }
 
 fn main() -> ExitCode {
@@ -37,6 +41,7 @@ fn main() -> ExitCode {
         Command::Info(args) => info::run(&args),
         Command::Measure(args) => measure::run(&args),
         Command::Simplify(args) => simplify::run(&args),
+        Command::Pm(cmd) => pm::run(&cmd),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

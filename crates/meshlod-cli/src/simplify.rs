@@ -1,7 +1,8 @@
 //! `meshlod simplify IN -o OUT [--ratio R | --triangles N] [--max-error E]
-//! [--method qem|cluster|vertex-removal] [--lock-boundary] [--pair-threshold T] [--json]`;
-//! vertex clustering adds `[--cell-size E] [--representative quadric|average|weighted]
-//! [--stream]`, vertex removal `[--feature-angle DEG] [--keep-corners]`.
+//! [--method qem|melax|cluster|vertex-removal] [--placement optimal|endpoint|midpoint]
+//! [--lock-boundary] [--pair-threshold T] [--json]`; vertex clustering adds
+//! `[--cell-size E] [--representative quadric|average|weighted] [--stream]`, vertex
+//! removal `[--feature-angle DEG] [--keep-corners]`.
 //!
 //! Reads with `meshlod::io::read_scene`, simplifies, writes with `write_scene`. A glTF
 //! input written back as glTF keeps its scene: each part (glTF mesh) is simplified
@@ -56,6 +57,10 @@ pub struct SimplifyArgs {
     /// Simplification method.
     #[arg(long, value_enum, default_value_t = MethodArg::Qem)]
     pub method: MethodArg,
+    /// Where QEM places a merged vertex (`endpoint`: half-edge collapses, as
+    /// `meshlod pm build --method qem` records).
+    #[arg(long, value_enum)]
+    pub placement: Option<PlacementArg>,
     /// Never move or remove a boundary vertex.
     #[arg(long)]
     pub lock_boundary: bool,
@@ -128,6 +133,19 @@ pub enum MethodArg {
     /// Schroeder vertex decimation: vertex removal, split-plane hole triangulation;
     /// output vertices are input vertices.
     VertexRemoval,
+    /// Melax's edge cost, half-edge collapses (no vertex moves).
+    Melax,
+}
+
+/// `--placement` values (QEM).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum PlacementArg {
+    /// The quadric minimiser (default).
+    Optimal,
+    /// The better endpoint: half-edge collapses, no vertex moves.
+    Endpoint,
+    /// The edge midpoint.
+    Midpoint,
 }
 
 /// The JSON report.
@@ -208,6 +226,7 @@ fn options(args: &SimplifyArgs) -> Result<SimplifyOptions> {
         MethodArg::Qem => Method::Qem,
         MethodArg::Cluster => Method::Cluster,
         MethodArg::VertexRemoval => Method::VertexRemoval,
+        MethodArg::Melax => Method::Melax,
     });
     if args.method != MethodArg::Cluster
         && (args.stream
@@ -228,6 +247,13 @@ fn options(args: &SimplifyArgs) -> Result<SimplifyOptions> {
         c = c.with_cell_size(dist(e));
     }
     o = o.with_cluster(c);
+    if let Some(p) = args.placement {
+        o = o.with_placement(match p {
+            PlacementArg::Optimal => meshlod::cost::Placement::Optimal,
+            PlacementArg::Endpoint => meshlod::cost::Placement::Endpoint,
+            PlacementArg::Midpoint => meshlod::cost::Placement::Midpoint,
+        });
+    }
     if let Some(r) = args.ratio {
         if !(0.0..=1.0).contains(&r) {
             bail!("--ratio {r} is not in [0, 1]");

@@ -15,13 +15,15 @@
 //! - [`quadric`]: quadric error metrics;
 //! - [`collapse`]: the edge-collapse operator and its legality checks;
 //! - [`cost`]: cost models (what to collapse first); [`filter`]: vetoes;
-//! - [`decimate`]: the drivers (priority queue, stop rules, reports, observers).
+//! - [`decimate`]: the drivers (priority queue, stop rules, reports, observers);
+//! - [`lod`]: progressive meshes (vertex splits, `.pmesh` files, navigation, geomorphs).
 
 pub mod collapse;
 pub mod cost;
 pub mod decimate;
 pub mod filter;
 pub mod io;
+pub mod lod;
 pub mod mesh;
 pub mod metrics;
 pub mod quadric;

@@ -8,8 +8,8 @@
 //!    (both counted in the report);
 //! 3. **decimate** with the edge-collapse driver ([`crate::decimate::edge_collapse`]):
 //!    the cost model of [`SimplifyOptions::method`] (quadric error metric,
-//!    [`crate::cost::Qem`]), the always-on collapse operator, and the filters the
-//!    options ask for;
+//!    [`crate::cost::Qem`], or Melax's edge cost, [`crate::cost::Melax`]), the
+//!    always-on collapse operator, and the filters the options ask for;
 //! 4. **output**: the surviving triangles over a compacted vertex buffer (first-use
 //!    order), attributes interpolated at moved vertices, groups kept.
 //!
@@ -21,7 +21,9 @@
 //! for (see [`crate::quadric`]). The report gives the largest such value over all
 //! collapses performed, both in mesh units and as a fraction of the input's
 //! bounding-box diagonal. It is an estimate from the quadrics, not a Hausdorff
-//! distance (measure that with the metrics module).
+//! distance (measure that with the metrics module). With [`Method::Melax`] the error
+//! of a collapse is its Melax cost (edge length × curvature term, see
+//! [`crate::cost::Melax`]).
 //!
 //! With [`Method::VertexRemoval`] step 3 is Schroeder's vertex decimation
 //! ([`crate::decimate::vertex_removal`]): no vertex moves, every output vertex is an
@@ -42,7 +44,7 @@
 //! ```
 
 use crate::collapse::{BuildOptions, OperatorLimits, Surface};
-use crate::cost::{Placement, Qem, QemOptions};
+use crate::cost::{Melax, Placement, Qem, QemOptions};
 use crate::decimate::cluster::{
     cluster_file, cluster_mesh, ClusterError, ClusterOptions, ClusterStats, Clustered,
 };
@@ -73,6 +75,9 @@ pub enum Method {
     /// `vtkDecimatePro`). Every output vertex is an input vertex, unmoved. See
     /// [`crate::decimate::vertex_removal`].
     VertexRemoval,
+    /// Melax's directional edge cost, half-edge collapses only (Melax 1998): no
+    /// vertex ever moves, so the result's positions are a subset of the input's.
+    Melax,
 }
 
 impl Method {
@@ -83,6 +88,7 @@ impl Method {
             Self::Qem => "qem",
             Self::Cluster => "cluster",
             Self::VertexRemoval => "vertex-removal",
+            Self::Melax => "melax",
         }
     }
 }
@@ -545,6 +551,17 @@ pub fn simplify_observed(
             );
             let outcome = vr.run(observer);
             (outcome, vr.output_triangles())
+        }
+        Method::Melax => {
+            let mut melax = Melax::default();
+            let outcome = edge_collapse::run(
+                &mut surface,
+                &mut melax,
+                &filters,
+                &driver_options,
+                observer,
+            );
+            (outcome, surface.output_triangles())
         }
     };
     let (out, vertex_source) = build_output(mesh, triangles, &mut surface);

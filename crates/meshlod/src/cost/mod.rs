@@ -11,8 +11,10 @@
 //! `removed` and the `kept` point, so a half-edge cost (Melax's `u → v`) is expressed
 //! by evaluating both directions the [`Moves`] allow and returning the better.
 
+mod melax;
 mod qem;
 
+pub use melax::{Melax, MelaxOptions};
 pub use qem::{Placement, Qem, QemOptions};
 
 use crate::collapse::{CollapseRecord, Moves, Surface};

@@ -338,6 +338,7 @@ pub fn run<C: CostModel + ?Sized>(
             out.rejections.filter += 1;
             continue;
         }
+        observer.before_collapse(d.surface, c.removed, c.kept);
         let mut record = d.surface.collapse(c.removed, c.kept, p);
         record.cost = c.cost;
         record.error = c.error;

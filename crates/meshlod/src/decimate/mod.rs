@@ -16,7 +16,7 @@ pub mod edge_collapse;
 mod heap;
 pub mod vertex_removal;
 
-use crate::collapse::CollapseRecord;
+use crate::collapse::{CollapseRecord, Surface};
 use serde::Serialize;
 
 /// When to stop: whichever comes first.
@@ -65,6 +65,10 @@ impl std::fmt::Display for StopReason {
 pub trait Observer {
     /// Called once before the first collapse.
     fn started(&mut self, _triangles: usize, _target: usize) {}
+    /// Called just before a collapse that passed every check is performed: `removed`
+    /// is about to be merged onto `kept`, and `surface` is still the state before
+    /// (what a progressive-mesh recorder reads the removed point's fan from).
+    fn before_collapse(&mut self, _surface: &Surface, _removed: u32, _kept: u32) {}
     /// Called after every performed collapse.
     fn collapsed(&mut self, _record: &CollapseRecord) {}
     /// Called every few thousand collapses with the current triangle count.

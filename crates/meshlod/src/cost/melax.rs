@@ -1,0 +1,326 @@
+//! Melax's edge-cost model (Melax, "A Simple, Fast, and Effective Polygon Reduction
+//! Algorithm", *Game Developer*, November 1998; the first formula of the course
+//! notes).
+//!
+//! A collapse is always a **half-edge collapse** `u → v`: `u` disappears and its
+//! triangles are re-attached to the existing vertex `v`, which does not move. The
+//! cost is directional:
+//!
+//! ```text
+//! cost(u, v) = |u − v| × max_{f ∈ T(u)} min_{n ∈ T(u,v)} (1 − f.normal · n.normal) / 2
+//! ```
+//!
+//! where `T(u)` are the triangles around `u` and `T(u,v)` those on the edge `uv`. The
+//! curvature term is 0 when every triangle around `u` is coplanar with one of the
+//! triangles that die, and up to 1 where `u` sits on a sharp crease. [`Melax`]
+//! evaluates both directions the operator allows ([`Moves::a_to_b`],
+//! [`Moves::b_to_a`]) and proposes the cheaper; ties go to removing the larger id.
+//!
+//! # Borders
+//! On a border edge `T(u,v)` is a single triangle and the formula alone would let a
+//! border corner slide away whenever the surface is flat. The rule used here keeps
+//! borders: the operator only lets a border point move along its own border (onto
+//! the next border, complex or locked point; never inward), and the curvature term
+//! of a border point `u` is at least the turn of the border at `u`,
+//! `border_weight × (1 − d₁ · d₂) / 2` with `d₁` the unit direction from `u`'s other
+//! border neighbour `w` to `u` and `d₂` from `u` to `v`. A straight run of border is
+//! thinned at the cost of its flat surface, but a corner of an outline or a hole
+//! costs as much as a crease of the same angle, so the outline keeps its shape.
+//!
+//! # Turn of the surviving triangles
+//! Melax's term compares the triangles around `u` with the ones that die, but not
+//! how the triangles that survive turn when their corner `u` jumps to `v`; over many
+//! collapses that lets thin parts fold over. By default the curvature term is also
+//! at least the largest such turn, `(1 − n · n′) / 2` for a surviving triangle with
+//! normals `n` before and `n′` after ([`MelaxOptions::turn_weight`]; `0` gives the
+//! formula alone). On flat regions both terms are 0, so it changes only the order of
+//! collapses that bend the surface.
+//!
+//! The model has no per-vertex state; normals are recomputed from the current
+//! surface (O(valence) per evaluation). The [`Candidate::error`] it reports is the
+//! cost itself: an edge length scaled by a curvature in `[0, 1]`, so a distance in
+//! mesh units (not a bound on the Hausdorff distance).
+
+use super::{Candidate, CostModel};
+use crate::collapse::{CollapseRecord, Moves, Surface};
+use crate::quadric::{cross, dot, sub};
+
+/// Settings of [`Melax`].
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct MelaxOptions {
+    /// Weight of the border-turn term (see the module docs). `0` leaves only Melax's
+    /// formula (borders then only kept by the operator's rules). Default 1.
+    pub border_weight: f64,
+    /// Weight of the turn term (see the module docs): the curvature term is at least
+    /// `turn_weight × (1 − n · n') / 2` over the triangles that survive around `u`
+    /// with normals `n` before and `n'` after. `0` gives Melax's formula alone.
+    /// Default 1.
+    pub turn_weight: f64,
+}
+
+impl Default for MelaxOptions {
+    fn default() -> Self {
+        Self {
+            border_weight: 1.0,
+            turn_weight: 1.0,
+        }
+    }
+}
+
+/// Melax's directional edge cost; always proposes half-edge collapses.
+///
+/// State: the unit normal of every triangle slot, refreshed around the survivor
+/// after each collapse (before [`CostModel::init`] normals are computed on demand).
+#[derive(Debug, Clone, Default)]
+pub struct Melax {
+    options: MelaxOptions,
+    normals: Vec<[f64; 3]>,
+}
+
+/// Unit normal of triangle `t` (zero when degenerate).
+fn unit_normal(surface: &Surface, t: u32) -> [f64; 3] {
+    let [a, b, c] = surface.triangle(t).map(|p| surface.local(p));
+    let n = cross(sub(b, a), sub(c, a));
+    let l = dot(n, n).sqrt();
+    if l > 0.0 {
+        [n[0] / l, n[1] / l, n[2] / l]
+    } else {
+        [0.0; 3]
+    }
+}
+
+impl Melax {
+    /// A Melax cost model with `options`.
+    #[must_use]
+    pub fn new(options: MelaxOptions) -> Self {
+        Self {
+            options,
+            normals: Vec::new(),
+        }
+    }
+
+    /// The cost of removing `u` onto `v`, or `None` when they share no triangle.
+    #[must_use]
+    pub fn cost(&self, surface: &Surface, u: u32, v: u32) -> Option<f64> {
+        let unit = |t: u32| -> Option<[f64; 3]> {
+            let n = match self.normals.get(t as usize) {
+                Some(n) => *n,
+                None => unit_normal(surface, t),
+            };
+            (n != [0.0; 3]).then_some(n)
+        };
+        // T(u, v): at most two on a manifold edge, kept inline.
+        let mut shared = [[0.0f64; 3]; 4];
+        let mut ns = 0;
+        let mut n_shared = 0;
+        for &t in surface.fan(u) {
+            if surface.triangle(t).contains(&v) {
+                n_shared += 1;
+                if let Some(n) = unit(t) {
+                    if ns < shared.len() {
+                        shared[ns] = n;
+                        ns += 1;
+                    }
+                }
+            }
+        }
+        if n_shared == 0 {
+            return None;
+        }
+        let mut curvature: f64 = 0.0;
+        if ns > 0 {
+            for &t in surface.fan(u) {
+                let Some(f) = unit(t) else { continue };
+                let mut m = f64::INFINITY;
+                for n in &shared[..ns] {
+                    m = m.min((1.0 - dot(f, *n)) * 0.5);
+                }
+                curvature = curvature.max(m);
+            }
+        } else {
+            curvature = 1.0;
+        }
+        if self.options.border_weight > 0.0 && surface.is_boundary(u) {
+            if n_shared > 1 {
+                // A border point moving inward (the operator refuses this anyway).
+                curvature = 1.0;
+            } else if let Some(w) = other_border_neighbour(surface, u, v) {
+                let (pw, pu, pv) = (surface.local(w), surface.local(u), surface.local(v));
+                let (d1, d2) = (sub(pu, pw), sub(pv, pu));
+                let l = (dot(d1, d1) * dot(d2, d2)).sqrt();
+                if l > 0.0 {
+                    let turn = (1.0 - dot(d1, d2) / l) * 0.5;
+                    curvature = curvature.max(self.options.border_weight * turn);
+                }
+            }
+        }
+        if self.options.turn_weight > 0.0 {
+            let pv = surface.local(v);
+            for &t in surface.fan(u) {
+                let tt = surface.triangle(t);
+                if tt.contains(&v) {
+                    continue;
+                }
+                let Some(n0) = unit(t) else { continue };
+                let [a2, b2, c2] = tt.map(|p| if p == u { pv } else { surface.local(p) });
+                let n1 = cross(sub(b2, a2), sub(c2, a2));
+                let l = dot(n1, n1).sqrt();
+                if l > 0.0 {
+                    let turn = (1.0 - dot(n0, n1) / l) * 0.5;
+                    curvature = curvature.max(self.options.turn_weight * turn);
+                }
+            }
+        }
+        let d = sub(surface.local(u), surface.local(v));
+        Some(dot(d, d).sqrt() * curvature.clamp(0.0, f64::MAX))
+    }
+}
+
+/// The neighbour `w ≠ v` of border point `u` joined to it by a border edge (an edge
+/// with one triangle around `u`), if any.
+fn other_border_neighbour(surface: &Surface, u: u32, v: u32) -> Option<u32> {
+    let fan = surface.fan(u);
+    for &t in fan {
+        let tt = surface.triangle(t);
+        for &x in &tt {
+            if x == u || x == v {
+                continue;
+            }
+            let count = fan
+                .iter()
+                .filter(|&&t2| surface.triangle(t2).contains(&x))
+                .count();
+            if count == 1 {
+                return Some(x);
+            }
+        }
+    }
+    None
+}
+
+impl CostModel for Melax {
+    fn name(&self) -> &'static str {
+        "melax"
+    }
+
+    fn init(&mut self, surface: &Surface) {
+        self.normals = (0..surface.triangle_slots() as u32)
+            .map(|t| {
+                if surface.triangle(t)[0] == crate::collapse::DEAD {
+                    [0.0; 3]
+                } else {
+                    unit_normal(surface, t)
+                }
+            })
+            .collect();
+    }
+
+    fn evaluate(&self, surface: &Surface, a: u32, b: u32, moves: &Moves) -> Option<Candidate> {
+        let mut best: Option<Candidate> = None;
+        for (u, v, allowed) in [(a, b, moves.a_to_b), (b, a, moves.b_to_a)] {
+            if !allowed {
+                continue;
+            }
+            let Some(cost) = self.cost(surface, u, v) else {
+                continue;
+            };
+            let cand = Candidate {
+                removed: u,
+                kept: v,
+                position: surface.position(v).map(f64::from),
+                cost,
+                error: cost,
+            };
+            // Cheaper first; on a tie remove the larger id (deterministic).
+            if best.is_none_or(|x| {
+                (cand.cost, std::cmp::Reverse(cand.removed))
+                    < (x.cost, std::cmp::Reverse(x.removed))
+            }) {
+                best = Some(cand);
+            }
+        }
+        best
+    }
+
+    fn collapsed(&mut self, surface: &Surface, record: &CollapseRecord) {
+        if self.normals.is_empty() {
+            return;
+        }
+        for &t in surface.fan(record.kept) {
+            self.normals[t as usize] = unit_normal(surface, t);
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::collapse::BuildOptions;
+    use crate::mesh::Mesh;
+
+    /// A flat square fan around a centre point 4, plus a fold along x = 1:
+    ///
+    /// ```text
+    ///  y
+    ///  2  0-----1-----2
+    ///     | \   |   / |      points 0..8 on a 3×3 grid in z = 0, except
+    ///  1  3-----4-----5      5 (x=2, y=1) lifted to z = 1: the right column
+    ///     | /   |   \ |      is folded up along x = 1
+    ///  0  6-----7-----8
+    ///     0     1     2  x
+    /// ```
+    fn folded() -> Mesh {
+        let mut p = Vec::new();
+        for y in [2.0f32, 1.0, 0.0] {
+            for x in [0.0f32, 1.0, 2.0] {
+                p.push([x, y, if x == 2.0 && y == 1.0 { 1.0 } else { 0.0 }]);
+            }
+        }
+        let t = vec![
+            [3, 4, 0],
+            [0, 4, 1],
+            [1, 4, 2],
+            [2, 4, 5],
+            [4, 3, 6],
+            [4, 6, 7],
+            [4, 7, 8],
+            [4, 8, 5],
+        ];
+        Mesh::from_triangles(p, t)
+    }
+
+    #[test]
+    fn flat_costs_zero_and_crease_costs_more_and_direction_matters() {
+        let (s, _) = Surface::build(&folded(), &BuildOptions::default());
+        let m = Melax::default();
+        // 3 → 0 along the straight border 6-3-0 with everything around 3 coplanar.
+        let c30 = m.cost(&s, 3, 0).expect("edge");
+        assert!(c30.abs() < 1e-12, "flat removal costs {c30}");
+        // 3 → 4 would move a border point inward: maximal curvature.
+        let c34 = m.cost(&s, 3, 4).expect("edge");
+        assert!((c34 - 1.0).abs() < 1e-12, "inward border move costs {c34}");
+        // 4 → 3: 4's fan contains the lifted triangles, so it costs more.
+        let c43 = m.cost(&s, 4, 3).expect("edge");
+        assert!(c43 > 0.01, "crease removal costs {c43}");
+        // No shared triangle: no cost.
+        assert!(m.cost(&s, 0, 8).is_none());
+    }
+
+    #[test]
+    fn border_corner_costs_its_turn() {
+        let (s, _) = Surface::build(&folded(), &BuildOptions::default());
+        // Corner 0 turns by 90° between borders 3-0 and 0-1: (1 − cos 90°)/2 = 0.5.
+        let c = Melax::default().cost(&s, 0, 1).expect("edge");
+        assert!((c - 0.5).abs() < 1e-12, "corner cost {c}");
+        let c0 = Melax::new(MelaxOptions {
+            border_weight: 0.0,
+            ..MelaxOptions::default()
+        })
+        .cost(&s, 0, 1)
+        .expect("edge");
+        assert!(
+            c0.abs() < 1e-12,
+            "without the border rule the flat corner is free: {c0}"
+        );
+    }
+}

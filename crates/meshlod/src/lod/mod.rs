@@ -1,0 +1,17 @@
+//! Level of detail: progressive meshes (Hoppe, "Progressive Meshes", SIGGRAPH 1996).
+//!
+//! A [`ProgressiveMesh`] is a coarse base mesh plus the ordered vertex splits that
+//! undo, one at a time, the half-edge collapses a simplification run performed
+//! (Melax's cost, or QEM restricted to endpoints). Every prefix of the splits is a
+//! valid mesh: this is what the `.pmesh` format ([`pmesh`]) streams, and what the
+//! [`Navigator`] moves through in both directions in time proportional to the
+//! number of splits applied.
+
+mod pmesh;
+mod progressive;
+
+pub use pmesh::{read_pmesh, write_pmesh, Decoded, PMESH_MAGIC, PMESH_VERSION};
+pub use progressive::{Navigator, PmError, ProgressiveMesh, VertexSplit};
+
+#[cfg(test)]
+mod tests;

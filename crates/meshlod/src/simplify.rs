@@ -151,6 +151,9 @@ pub struct SimplifyOptions {
     /// length `l` adds a plane of weight `w·l²` (an equilateral triangle on it has
     /// area `0.43·l²`). Higher keeps open borders more faithfully. Default `10.0`.
     pub boundary_weight: f64,
+    /// Exponent α of QEM's triangle weights `area^α · mean_area^(1−α)`: `1` is
+    /// area weighting, `0.5` keeps small triangles (detail) more. Default `1.0`.
+    pub area_exponent: f64,
     /// Maximum angle in degrees a triangle's normal may turn in one collapse.
     /// Default `None` (only fold-overs, turns of 90° or more, are refused).
     pub max_normal_deviation: Option<f64>,
@@ -188,6 +191,7 @@ impl Default for SimplifyOptions {
             locked_vertices: None,
             preserve_topology: true,
             boundary_weight: 10.0,
+            area_exponent: 1.0,
             max_normal_deviation: None,
             pair_threshold: None,
             min_triangle_quality: 0.1,
@@ -240,6 +244,12 @@ impl SimplifyOptions {
     #[must_use]
     pub fn with_preserve_topology(mut self, preserve: bool) -> Self {
         self.preserve_topology = preserve;
+        self
+    }
+    /// Sets [`Self::area_exponent`].
+    #[must_use]
+    pub fn with_area_exponent(mut self, alpha: f64) -> Self {
+        self.area_exponent = alpha;
         self
     }
     /// Sets [`Self::boundary_weight`].
@@ -329,6 +339,12 @@ impl SimplifyOptions {
                     format!("{} is not a finite non-negative distance", t.value()),
                 );
             }
+        }
+        if !(0.0..=2.0).contains(&self.area_exponent) {
+            return bad(
+                "area_exponent",
+                format!("{} is not in [0, 2]", self.area_exponent),
+            );
         }
         if !(self.boundary_weight >= 0.0 && self.boundary_weight.is_finite()) {
             return bad(
@@ -531,6 +547,7 @@ pub fn simplify_observed(
         Method::Qem => {
             let qo = QemOptions {
                 boundary_weight: options.boundary_weight,
+                area_exponent: options.area_exponent,
                 placement: options.placement,
                 ..QemOptions::default()
             };

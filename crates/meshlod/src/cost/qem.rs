@@ -52,6 +52,14 @@ pub struct QemOptions {
     pub max_reach: f64,
     /// Placement rule.
     pub placement: Placement,
+    /// Exponent α of the triangle weights: a triangle's plane quadric is weighted
+    /// by `area^α · Ā^(1−α)` (`Ā` the mean triangle area, so the scale stays that of
+    /// an area weight and the border weights keep their meaning). `1` is Garland &
+    /// Heckbert's area weighting (default); `0` weighs every triangle alike, which
+    /// favours finely tessellated regions (features, in CAD and scan meshes); `0.5`
+    /// lowered the maximum Hausdorff distance on most of our test meshes at a small
+    /// cost in mean distance (see the README).
+    pub area_exponent: f64,
 }
 
 impl Default for QemOptions {
@@ -62,6 +70,7 @@ impl Default for QemOptions {
             condition: DEFAULT_CONDITION,
             max_reach: 2.0,
             placement: Placement::Optimal,
+            area_exponent: 1.0,
         }
     }
 }
@@ -127,13 +136,33 @@ impl CostModel for Qem {
         let n = surface.point_count();
         self.quadrics.clear();
         self.quadrics.resize(n, Quadric::ZERO);
+        // Mean triangle area (the scale of non-area weights, `area_exponent`).
+        let mut mean_area = 0.0f64;
+        if self.options.area_exponent != 1.0 {
+            let mut cnt = 0.0f64;
+            for t in 0..surface.triangle_slots() as u32 {
+                let tt = surface.triangle(t);
+                if tt[0] == crate::collapse::DEAD {
+                    continue;
+                }
+                let [a, b, c] = tt.map(|p| surface.local(p));
+                mean_area += 0.5 * crate::quadric::norm(cross(sub(b, a), sub(c, a)));
+                cnt += 1.0;
+            }
+            mean_area /= cnt.max(1.0);
+        }
         for t in 0..surface.triangle_slots() as u32 {
             let tt = surface.triangle(t);
             if tt[0] == crate::collapse::DEAD {
                 continue;
             }
             let [a, b, c] = tt.map(|p| surface.local(p));
-            if let Some(q) = Quadric::from_triangle(a, b, c) {
+            if let Some(mut q) = Quadric::from_triangle(a, b, c) {
+                // Weight area^α · mean^(1−α): α = 1 is the classic area weight.
+                let alpha = self.options.area_exponent;
+                if alpha != 1.0 && q.weight > 0.0 && mean_area > 0.0 {
+                    q.scale((mean_area / q.weight).powf(1.0 - alpha));
+                }
                 for p in tt {
                     self.quadrics[p as usize].add(&q);
                 }
@@ -205,5 +234,59 @@ impl CostModel for Qem {
     fn collapsed(&mut self, _surface: &Surface, record: &CollapseRecord) {
         let r = self.quadrics[record.removed as usize];
         self.quadrics[record.kept as usize].add(&r);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::collapse::BuildOptions;
+    use crate::mesh::Mesh;
+
+    /// Two separate right triangles, legs 1 and 2 (areas 0.5 and 2):
+    ///
+    /// ```text
+    ///   2 +             5 +
+    ///     | \             |  \
+    ///   0 +--+ 1        3 +----+ 4
+    /// ```
+    ///
+    /// Each point's quadric weight is its triangle's weight `area^α · Ā^(1−α)`
+    /// (`Ā = 1.25`; no border planes with `boundary_weight = 0`).
+    #[test]
+    fn area_exponent_sets_triangle_weights() {
+        let mesh = Mesh::from_triangles(
+            vec![
+                [0.0, 0.0, 0.0],
+                [1.0, 0.0, 0.0],
+                [0.0, 1.0, 0.0],
+                [5.0, 0.0, 0.0],
+                [7.0, 0.0, 0.0],
+                [5.0, 2.0, 0.0],
+            ],
+            vec![[0, 1, 2], [3, 4, 5]],
+        );
+        let (surface, _) = Surface::build(&mesh, &BuildOptions::default());
+        let mean: f64 = 1.25;
+        for (alpha, small, big) in [
+            (1.0, 0.5, 2.0),
+            (0.0, mean, mean),
+            (0.5, (0.5 * mean).sqrt(), (2.0 * mean).sqrt()),
+        ] {
+            let mut qem = Qem::new(QemOptions {
+                boundary_weight: 0.0,
+                area_exponent: alpha,
+                ..QemOptions::default()
+            });
+            qem.init(&surface);
+            let w = |x: [f32; 3]| {
+                let p = (0..surface.point_count() as u32)
+                    .find(|&p| surface.position(p) == x)
+                    .expect("point exists");
+                qem.quadric(p).weight
+            };
+            assert!((w([0.0, 0.0, 0.0]) - small).abs() < 1e-12, "alpha {alpha}");
+            assert!((w([7.0, 0.0, 0.0]) - big).abs() < 1e-12, "alpha {alpha}");
+        }
     }
 }

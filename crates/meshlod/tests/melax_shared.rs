@@ -14,38 +14,9 @@
 mod common;
 
 use meshlod::io::read_scene;
-use meshlod::mesh::{Mesh, MeshStats};
+use meshlod::mesh::MeshStats;
 use meshlod::metrics::bvh::Bvh;
 use meshlod::simplify::{simplify, Method, SimplifyOptions, StopReason};
-
-fn normal(m: &Mesh, t: [u32; 3]) -> [f64; 3] {
-    let [a, b, c] = t.map(|i| m.positions[i as usize].map(f64::from));
-    let (u, v) = (
-        [b[0] - a[0], b[1] - a[1], b[2] - a[2]],
-        [c[0] - a[0], c[1] - a[1], c[2] - a[2]],
-    );
-    [
-        u[1] * v[2] - u[2] * v[1],
-        u[2] * v[0] - u[0] * v[2],
-        u[0] * v[1] - u[1] * v[0],
-    ]
-}
-
-fn flipped(original: &Mesh, bvh: &Bvh, out: &Mesh) -> usize {
-    let mut n = 0;
-    for t in &out.triangles {
-        let [a, b, c] = t.map(|i| out.positions[i as usize].map(f64::from));
-        let centroid = [0, 1, 2].map(|k| (a[k] + b[k] + c[k]) / 3.0);
-        if let Some(cl) = bvh.closest(centroid, None) {
-            let no = normal(original, original.triangles[cl.triangle as usize]);
-            let ns = normal(out, *t);
-            if no[0] * ns[0] + no[1] * ns[1] + no[2] * ns[2] < 0.0 {
-                n += 1;
-            }
-        }
-    }
-    n
-}
 
 /// Known exceptions, as in `simplify_shared.rs` (thin slab on a UV-seam mesh).
 const KNOWN_FLIPS: &[&str] = &["odedstein-meshes/pizza.obj"];
@@ -119,7 +90,7 @@ fn melax_keeps_invariants_on_the_shared_set() {
                 }
             }
             if si.components == 1 && !KNOWN_FLIPS.iter().any(|k| row.file.starts_with(k)) {
-                let f = flipped(&mesh, &bvh, &out);
+                let f = common::flipped(&mesh, &bvh, &out);
                 let frac = if ratio < 0.05 { 0.2 } else { 0.03 };
                 if f > 0 {
                     eprintln!("{name}: {f} of {got} triangles face away");

@@ -16,45 +16,6 @@ use meshlod::mesh::{Mesh, MeshStats};
 use meshlod::metrics::bvh::Bvh;
 use meshlod::simplify::{simplify, simplify_observed, Method, Report, SimplifyOptions, StopReason};
 
-fn f64x3(p: [f32; 3]) -> [f64; 3] {
-    p.map(f64::from)
-}
-
-fn normal(m: &Mesh, t: [u32; 3]) -> [f64; 3] {
-    let [a, b, c] = t.map(|i| f64x3(m.positions[i as usize]));
-    let (u, v) = (
-        [b[0] - a[0], b[1] - a[1], b[2] - a[2]],
-        [c[0] - a[0], c[1] - a[1], c[2] - a[2]],
-    );
-    [
-        u[1] * v[2] - u[2] * v[1],
-        u[2] * v[0] - u[0] * v[2],
-        u[0] * v[1] - u[1] * v[0],
-    ]
-}
-
-/// Output triangles whose normal points away from the normal of the closest
-/// original triangle to their centroid.
-fn flipped(original: &Mesh, bvh: &Bvh, out: &Mesh) -> usize {
-    let mut n = 0;
-    for t in &out.triangles {
-        let [a, b, c] = t.map(|i| f64x3(out.positions[i as usize]));
-        let centroid = [
-            (a[0] + b[0] + c[0]) / 3.0,
-            (a[1] + b[1] + c[1]) / 3.0,
-            (a[2] + b[2] + c[2]) / 3.0,
-        ];
-        if let Some(cl) = bvh.closest(centroid, None) {
-            let no = normal(original, original.triangles[cl.triangle as usize]);
-            let ns = normal(out, *t);
-            if no[0] * ns[0] + no[1] * ns[1] + no[2] * ns[2] < 0.0 {
-                n += 1;
-            }
-        }
-    }
-    n
-}
-
 /// Meshes whose "flipped" count at 1% is a known limit of vertex removal, checked
 /// against a looser bound ([`THIN_PART_FLIP_FRACTION`]) instead of 3%.
 ///
@@ -131,7 +92,7 @@ fn check(
         }
     }
     let f = if si.topology.components == 1 && !KNOWN_FLIPS.iter().any(|k| name.starts_with(k)) {
-        flipped(input, bvh, out)
+        common::flipped(input, bvh, out)
     } else {
         0
     };

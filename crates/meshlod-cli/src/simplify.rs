@@ -25,7 +25,7 @@ use meshlod::decimate::Observer;
 use meshlod::io::{read_scene, write_scene, Format, Scene, WriteOptions};
 use meshlod::metrics::{self, Distances, SamplingOptions};
 use meshlod::simplify::{
-    simplify_observed, simplify_stream, Distance, Method, SimplifyOptions, StopReason,
+    simplify_observed, simplify_stream, Distance, Method, Report, SimplifyOptions, StopReason,
 };
 use serde::Serialize;
 use std::io::IsTerminal;
@@ -331,25 +331,7 @@ pub fn run(args: &SimplifyArgs) -> Result<()> {
         let mesh = scene.flatten();
         let s = simplify_observed(&mesh, &opts, &mut progress)
             .with_context(|| format!("{}", args.input.display()))?;
-        let r = s.report;
-        let agg = Aggregate {
-            parts: 1,
-            triangles_in: r.triangles_in,
-            vertices_in: r.vertices_in,
-            target_triangles: r.target_triangles,
-            triangles_out: r.triangles_out,
-            vertices_out: r.vertices_out,
-            error_absolute: r.error_absolute,
-            diag: r.bbox_diagonal,
-            stop_reason: r.stop_reason,
-            stop_detail: r.stop_detail,
-            seconds: r.seconds,
-            collapses: r.collapses,
-            non_edge: r.non_edge_contractions,
-            degenerate: r.degenerate_removed,
-            duplicate: r.duplicate_removed,
-            cluster: r.cluster,
-        };
+        let agg = Aggregate::single(s.report);
         let mut out = Scene::from_mesh(s.mesh);
         out.material_libraries = scene.material_libraries.clone();
         (out, agg)
@@ -377,25 +359,7 @@ pub fn run(args: &SimplifyArgs) -> Result<()> {
 /// `--stream`: cluster the file without loading it (read twice), write, report.
 fn run_stream(args: &SimplifyArgs, opts: &SimplifyOptions) -> Result<()> {
     let s = simplify_stream(&args.input, opts)?;
-    let r = s.report;
-    let agg = Aggregate {
-        parts: 1,
-        triangles_in: r.triangles_in,
-        vertices_in: r.vertices_in,
-        target_triangles: r.target_triangles,
-        triangles_out: r.triangles_out,
-        vertices_out: r.vertices_out,
-        error_absolute: r.error_absolute,
-        diag: r.bbox_diagonal,
-        stop_reason: r.stop_reason,
-        stop_detail: r.stop_detail,
-        seconds: r.seconds,
-        collapses: r.collapses,
-        non_edge: r.non_edge_contractions,
-        degenerate: r.degenerate_removed,
-        duplicate: r.duplicate_removed,
-        cluster: r.cluster,
-    };
+    let agg = Aggregate::single(s.report);
     let t1 = Instant::now();
     write_scene(
         &args.output,
@@ -502,6 +466,69 @@ struct Aggregate {
     cluster: Option<ClusterStats>,
 }
 
+impl Aggregate {
+    /// No part yet, for a scene of `parts` parts with bounding-box diagonal `diag`.
+    fn empty(parts: usize, diag: f64) -> Self {
+        Self {
+            parts,
+            triangles_in: 0,
+            vertices_in: 0,
+            target_triangles: 0,
+            triangles_out: 0,
+            vertices_out: 0,
+            error_absolute: 0.0,
+            diag,
+            stop_reason: StopReason::TargetReached,
+            stop_detail: String::new(),
+            seconds: 0.0,
+            collapses: 0,
+            non_edge: 0,
+            degenerate: 0,
+            duplicate: 0,
+            cluster: None,
+        }
+    }
+
+    /// The totals of one run over the whole input.
+    fn single(r: Report) -> Self {
+        let mut a = Self::empty(1, r.bbox_diagonal);
+        a.add(&r);
+        a.stop_reason = r.stop_reason;
+        a.stop_detail = r.stop_detail;
+        a
+    }
+
+    /// Adds one part's counts (the stop reason is the caller's to set).
+    fn add(&mut self, r: &Report) {
+        self.triangles_in += r.triangles_in;
+        self.vertices_in += r.vertices_in;
+        self.target_triangles += r.target_triangles;
+        self.triangles_out += r.triangles_out;
+        self.vertices_out += r.vertices_out;
+        self.error_absolute = self.error_absolute.max(r.error_absolute);
+        self.seconds += r.seconds;
+        self.collapses += r.collapses;
+        self.non_edge += r.non_edge_contractions;
+        self.degenerate += r.degenerate_removed;
+        self.duplicate += r.duplicate_removed;
+        if let Some(c) = &r.cluster {
+            // Per-part clustering: the counts are summed in the first part's stats.
+            match &mut self.cluster {
+                Some(a) => {
+                    a.non_manifold_edges += c.non_manifold_edges;
+                    a.non_manifold_vertices += c.non_manifold_vertices;
+                    a.boundary_edges += c.boundary_edges;
+                    a.collapsed_triangles += c.collapsed_triangles;
+                    a.duplicate_triangles += c.duplicate_triangles;
+                    a.flattened_triangles += c.flattened_triangles;
+                    a.max_error = a.max_error.max(c.max_error);
+                }
+                None => self.cluster = Some(c.clone()),
+            }
+        }
+    }
+}
+
 /// Simplifies every part of a glTF scene with the same ratio; absolute distances
 /// are the scene's (flattened) diagonal times the relative ones.
 fn simplify_parts(
@@ -532,55 +559,13 @@ fn simplify_parts(
     part_opts.max_error = abs(opts.max_error);
     part_opts.pair_threshold = abs(opts.pair_threshold);
     let mut out = scene.clone();
-    let mut agg = Aggregate {
-        parts: scene.parts.len(),
-        triangles_in: 0,
-        vertices_in: 0,
-        target_triangles: 0,
-        triangles_out: 0,
-        vertices_out: 0,
-        error_absolute: 0.0,
-        diag,
-        stop_reason: StopReason::TargetReached,
-        stop_detail: String::new(),
-        seconds: 0.0,
-        collapses: 0,
-        non_edge: 0,
-        degenerate: 0,
-        duplicate: 0,
-        cluster: None,
-    };
+    let mut agg = Aggregate::empty(scene.parts.len(), diag);
     let mut first_other: Option<(StopReason, String)> = None;
     for (i, part) in scene.parts.iter().enumerate() {
         let s = simplify_observed(&part.mesh, &part_opts, progress)
             .with_context(|| format!("part {i} ({})", part.name.as_deref().unwrap_or("unnamed")))?;
         let r = &s.report;
-        agg.triangles_in += r.triangles_in;
-        agg.vertices_in += r.vertices_in;
-        agg.target_triangles += r.target_triangles;
-        agg.triangles_out += r.triangles_out;
-        agg.vertices_out += r.vertices_out;
-        agg.error_absolute = agg.error_absolute.max(r.error_absolute);
-        agg.seconds += r.seconds;
-        agg.collapses += r.collapses;
-        agg.non_edge += r.non_edge_contractions;
-        agg.degenerate += r.degenerate_removed;
-        agg.duplicate += r.duplicate_removed;
-        if let Some(c) = &r.cluster {
-            // Per-part clustering: keep the counts summed in the first part's stats.
-            match &mut agg.cluster {
-                Some(a) => {
-                    a.non_manifold_edges += c.non_manifold_edges;
-                    a.non_manifold_vertices += c.non_manifold_vertices;
-                    a.boundary_edges += c.boundary_edges;
-                    a.collapsed_triangles += c.collapsed_triangles;
-                    a.duplicate_triangles += c.duplicate_triangles;
-                    a.flattened_triangles += c.flattened_triangles;
-                    a.max_error = a.max_error.max(c.max_error);
-                }
-                None => agg.cluster = Some(c.clone()),
-            }
-        }
+        agg.add(r);
         if !matches!(
             r.stop_reason,
             StopReason::TargetReached | StopReason::EmptyInput

@@ -26,6 +26,13 @@ fn torus_file(dir: &Path) -> PathBuf {
     .expect("write torus");
     p
 }
+/// Runs `meshlod simplify INPUT -o OUTPUT` followed by `extra`.
+fn simplify(input: impl AsRef<Path>, output: impl AsRef<Path>, extra: &[&str]) -> Output {
+    let (i, o) = (input.as_ref(), output.as_ref());
+    let mut args = vec!["simplify", i.to_str().unwrap(), "-o", o.to_str().unwrap()];
+    args.extend_from_slice(extra);
+    meshlod(&args)
+}
 
 fn json(out: &Output) -> serde_json::Value {
     assert!(
@@ -43,15 +50,7 @@ fn ratio_json_report_and_output() {
     let dir = tempfile::tempdir().unwrap();
     let input = torus_file(dir.path());
     let output = dir.path().join("out.ply");
-    let out = meshlod(&[
-        "simplify",
-        input.to_str().unwrap(),
-        "-o",
-        output.to_str().unwrap(),
-        "--ratio",
-        "0.1",
-        "--json",
-    ]);
+    let out = simplify(&input, &output, &["--ratio", "0.1", "--json"]);
     let j = json(&out);
     assert_eq!(j["triangles_in"], 2304);
     assert_eq!(j["triangles_out"], 230);
@@ -72,40 +71,15 @@ fn triangles_max_error_and_absolute() {
     let input = torus_file(dir.path());
     let output = dir.path().join("out.ply");
     let (i, o) = (input.to_str().unwrap(), output.to_str().unwrap());
-    let j = json(&meshlod(&[
-        "simplify",
-        i,
-        "-o",
-        o,
-        "--triangles",
-        "1000",
-        "--json",
-    ]));
+    let j = json(&simplify(i, o, &["--triangles", "1000", "--json"]));
     assert_eq!(j["triangles_out"], 1000);
     // An error bound alone simplifies until the next collapse would exceed it.
-    let j = json(&meshlod(&[
-        "simplify",
-        i,
-        "-o",
-        o,
-        "--max-error",
-        "0.002",
-        "--json",
-    ]));
+    let j = json(&simplify(i, o, &["--max-error", "0.002", "--json"]));
     assert_eq!(j["stop_reason"], "max_error");
     assert!(j["error"].as_f64().unwrap() <= 0.002);
     assert!(j["triangles_out"].as_u64().unwrap() < 2304);
     // --absolute: error in mesh units (diagonal of this torus ≈ 6.6).
-    let j = json(&meshlod(&[
-        "simplify",
-        i,
-        "-o",
-        o,
-        "--ratio",
-        "0.2",
-        "--absolute",
-        "--json",
-    ]));
+    let j = json(&simplify(i, o, &["--ratio", "0.2", "--absolute", "--json"]));
     let (abs, rel, diag) = (
         j["error"].as_f64().unwrap(),
         j["error_relative"].as_f64().unwrap(),
@@ -120,15 +94,7 @@ fn text_report_is_one_screen() {
     let dir = tempfile::tempdir().unwrap();
     let input = torus_file(dir.path());
     let output = dir.path().join("out.obj.ply");
-    let out = meshlod(&[
-        "simplify",
-        input.to_str().unwrap(),
-        "-o",
-        output.to_str().unwrap(),
-        "--ratio",
-        "0.5",
-        "--lock-boundary",
-    ]);
+    let out = simplify(&input, &output, &["--ratio", "0.5", "--lock-boundary"]);
     assert!(
         out.status.success(),
         "{}",
@@ -185,15 +151,7 @@ fn gltf_parts_are_simplified_separately() {
     };
     let dir = tempfile::tempdir().unwrap();
     let output = dir.path().join("duck.glb");
-    let out = meshlod(&[
-        "simplify",
-        duck.to_str().unwrap(),
-        "-o",
-        output.to_str().unwrap(),
-        "--ratio",
-        "0.25",
-        "--json",
-    ]);
+    let out = simplify(&duck, &output, &["--ratio", "0.25", "--json"]);
     if !out.status.success() && String::from_utf8_lossy(&out.stderr).contains("not written yet") {
         eprintln!("notice: glTF writer not available; skipping");
         return;
@@ -251,15 +209,10 @@ fn vertex_removal_method() {
             .iter()
             .all(|p| input_positions.contains(&p.map(f32::to_bits))));
     }
-    let bad = meshlod(&[
-        "simplify",
+    let bad = simplify(
         i,
-        "-o",
         o,
-        "--method",
-        "vertex-removal",
-        "--feature-angle",
-        "200",
-    ]);
+        &["--method", "vertex-removal", "--feature-angle", "200"],
+    );
     assert!(!bad.status.success());
 }

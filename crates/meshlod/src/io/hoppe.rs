@@ -562,6 +562,7 @@ pub fn write(mesh: &Mesh, out: &mut Vec<u8>) -> Result<(), FormatError> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::io::test_support::{assert_line_errors, mutated, position_bits};
     use proptest::prelude::*;
 
     fn mesh(src: &str) -> Mesh {
@@ -751,11 +752,7 @@ mod tests {
             ("Vertex 4 5 5 5 {uv=0.5}\n", "in parentheses"),
             ("Vertex 4 5 5 5 {rgb=(1 0 z)}\n", "expected a number"),
         ];
-        for (line, message) in cases {
-            let e = err(&format!("{base}{line}"));
-            assert_eq!(e.location, Location::Line(4), "{line}");
-            assert!(e.message.contains(message), "{line}: {}", e.message);
-        }
+        assert_line_errors(err, base, cases, 4);
     }
 
     #[test]
@@ -840,8 +837,7 @@ mod tests {
             write(&m, &mut out).unwrap();
             let back = read(&out).unwrap();
             prop_assert_eq!(&back, &m);
-            let bits = |m: &Mesh| m.positions.iter().flatten().map(|x| x.to_bits()).collect::<Vec<_>>();
-            prop_assert_eq!(bits(&back), bits(&m));
+            prop_assert_eq!(position_bits(&back), position_bits(&m));
         }
 
         #[test]
@@ -851,12 +847,7 @@ mod tests {
 
         #[test]
         fn never_panics_on_mutated_file(cut in 0usize..300, byte in any::<u8>(), at in 0usize..300) {
-            let mut data = SPARSE.as_bytes().to_vec();
-            if let Some(b) = data.get_mut(at) {
-                *b = byte;
-            }
-            data.truncate(cut.max(1));
-            let _ = read(&data);
+            let _ = read(&mutated(SPARSE.as_bytes(), at, byte, cut));
         }
     }
 }

@@ -19,6 +19,8 @@ pub mod off;
 pub mod ply;
 pub mod stl;
 pub mod stream;
+#[cfg(test)]
+mod test_support;
 pub(crate) mod text;
 
 use crate::mesh::{Mesh, MeshError};

@@ -959,6 +959,7 @@ fn resolve_index(field: &[u8], count: usize, what: &str, ln: u64) -> Result<u32,
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::io::test_support::{assert_line_errors, mutated, position_bits};
     use proptest::prelude::*;
 
     fn scene(src: &str) -> Scene {
@@ -1238,11 +1239,7 @@ mod tests {
             ("f 1/1/1/1 2 3\n", "more than three"),
             ("f /1 2 3\n", "no vertex index"),
         ];
-        for (line, message) in cases {
-            let e = err(&format!("{base}{line}"));
-            assert_eq!(e.location, Location::Line(4), "{line}");
-            assert!(e.message.contains(message), "{line}: {}", e.message);
-        }
+        assert_line_errors(err, base, cases, 4);
     }
 
     #[test]
@@ -1439,8 +1436,7 @@ mod tests {
             let expected = expected_after_round_trip(&m);
             prop_assert_eq!(&back.parts[0].mesh, &expected);
             // Bit-exact, including the sign of zero.
-            let bits = |m: &Mesh| m.positions.iter().flatten().map(|x| x.to_bits()).collect::<Vec<_>>();
-            prop_assert_eq!(bits(&back.parts[0].mesh), bits(&expected));
+            prop_assert_eq!(position_bits(&back.parts[0].mesh), position_bits(&expected));
         }
 
         #[test]
@@ -1450,13 +1446,9 @@ mod tests {
 
         #[test]
         fn never_panics_on_mutated_file(cut in 0usize..120, byte in any::<u8>(), at in 0usize..120) {
-            let mut data = b"v 0 0 0\nv 1 0 0 1 0 0\nvt 0 0\nvn 0 0 1\nusemtl a\n\
-                             f 1/1/1 2//1 -1/1\nf 1 2 2 2 \\\n1\no x\n".to_vec();
-            if let Some(b) = data.get_mut(at) {
-                *b = byte;
-            }
-            data.truncate(cut.max(1));
-            let _ = read(&data);
+            let sample = b"v 0 0 0\nv 1 0 0 1 0 0\nvt 0 0\nvn 0 0 1\nusemtl a\n\
+                           f 1/1/1 2//1 -1/1\nf 1 2 2 2 \\\n1\no x\n";
+            let _ = read(&mutated(sample, at, byte, cut));
         }
     }
 }

@@ -1793,6 +1793,7 @@ fn read_ascii(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::io::test_support::{corrupted, position_bits};
     use proptest::prelude::*;
 
     fn err(data: &[u8]) -> FormatError {
@@ -1818,49 +1819,30 @@ mod tests {
         fn header_len(header: &str) -> u64 {
             header.len() as u64
         }
-        fn f32(&mut self, v: &[f32]) -> &mut Self {
-            for x in v {
-                let b = if self.be {
-                    x.to_be_bytes()
-                } else {
-                    x.to_le_bytes()
-                };
+        /// Appends numbers of one type in the chosen byte order.
+        fn put<const N: usize, T: Copy>(
+            &mut self,
+            v: &[T],
+            le: fn(T) -> [u8; N],
+            be: fn(T) -> [u8; N],
+        ) -> &mut Self {
+            for &x in v {
+                let b = if self.be { be(x) } else { le(x) };
                 self.out.extend_from_slice(&b);
             }
             self
+        }
+        fn f32(&mut self, v: &[f32]) -> &mut Self {
+            self.put(v, f32::to_le_bytes, f32::to_be_bytes)
         }
         fn f64(&mut self, v: &[f64]) -> &mut Self {
-            for x in v {
-                let b = if self.be {
-                    x.to_be_bytes()
-                } else {
-                    x.to_le_bytes()
-                };
-                self.out.extend_from_slice(&b);
-            }
-            self
+            self.put(v, f64::to_le_bytes, f64::to_be_bytes)
         }
         fn i32(&mut self, v: &[i32]) -> &mut Self {
-            for x in v {
-                let b = if self.be {
-                    x.to_be_bytes()
-                } else {
-                    x.to_le_bytes()
-                };
-                self.out.extend_from_slice(&b);
-            }
-            self
+            self.put(v, i32::to_le_bytes, i32::to_be_bytes)
         }
         fn u16(&mut self, v: &[u16]) -> &mut Self {
-            for x in v {
-                let b = if self.be {
-                    x.to_be_bytes()
-                } else {
-                    x.to_le_bytes()
-                };
-                self.out.extend_from_slice(&b);
-            }
-            self
+            self.put(v, u16::to_le_bytes, u16::to_be_bytes)
         }
         fn u8(&mut self, v: &[u8]) -> &mut Self {
             self.out.extend_from_slice(v);
@@ -2629,8 +2611,7 @@ property list uchar int vertex_indices\nproperty uint material_index\n"
                 write(&m, ascii, &mut out).unwrap();
                 let back = read(&out).unwrap();
                 prop_assert_eq!(&back, &m);
-                let bits = |m: &Mesh| m.positions.iter().flatten().map(|v| v.to_bits()).collect::<Vec<_>>();
-                prop_assert_eq!(bits(&back), bits(&m));
+                prop_assert_eq!(position_bits(&back), position_bits(&m));
             }
         }
 
@@ -2645,12 +2626,8 @@ property list uchar int vertex_indices\nproperty uint material_index\n"
         ) {
             let mut out = Vec::new();
             write(&m, ascii, &mut out).unwrap();
-            for (at, byte) in edits {
-                let i = at.index(out.len());
-                out[i] = byte;
-            }
+            let (out, keep) = corrupted(out, &edits, &cut);
             let _ = read(&out);
-            let keep = cut.index(out.len());
             let _ = read(&out[..keep]);
         }
 

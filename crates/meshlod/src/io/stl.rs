@@ -649,6 +649,7 @@ fn weld(soup: &[[f32; 3]]) -> Mesh {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::io::test_support::corrupted;
     use proptest::prelude::*;
 
     fn err(data: &[u8]) -> FormatError {
@@ -931,12 +932,8 @@ endsolid\n";
         ) {
             let mut out = Vec::new();
             write(&m, ascii, &mut out).unwrap();
-            for (at, byte) in edits {
-                let i = at.index(out.len());
-                out[i] = byte;
-            }
+            let (out, keep) = corrupted(out, &edits, &cut);
             let _ = read(&out);
-            let keep = cut.index(out.len());
             let _ = read(&out[..keep]);
         }
 

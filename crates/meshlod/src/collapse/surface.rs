@@ -561,6 +561,17 @@ impl Surface {
             self.boundary[pi] = false;
             return;
         }
+        if fl <= 16 && self.tri_wedge.is_none() && self.tri_group.is_none() {
+            if let Some(border) = self.single_oriented_fan(p) {
+                self.kind[pi] = if border {
+                    VertexKind::Border
+                } else {
+                    VertexKind::Manifold
+                };
+                self.boundary[pi] = border;
+                return;
+            }
+        }
         let small = fl <= 16;
         let g = if small { 0 } else { self.next_gen() };
         let mut edges = std::mem::take(&mut self.scratch_edges);
@@ -661,6 +672,66 @@ impl Surface {
         self.boundary[pi] = nb > 0;
         self.scratch_edges = edges;
         self.scratch_parent = parent;
+    }
+
+    /// Fast path of [`Self::classify`] for a fan of at most 16 triangles without
+    /// seams: `Some(false)` when the fan is one consistently oriented closed disc,
+    /// `Some(true)` when it is one consistently oriented open disc (a border point),
+    /// `None` for anything else (left to the general classification).
+    ///
+    /// With `p` at corner `k` of each fan triangle, `a = tt[k+1]` and `b = tt[k+2]`:
+    /// in an oriented disc every `b` is the `a` of exactly the next triangle, so
+    /// following `b → a` visits every triangle once.
+    pub(crate) fn single_oriented_fan(&self, p: u32) -> Option<bool> {
+        let s = self.fan_start[p as usize] as usize;
+        let fl = self.fan_len[p as usize] as usize;
+        let (mut a, mut b) = ([0u32; 16], [0u32; 16]);
+        for i in 0..fl {
+            let tt = self.tri[self.fans[s + i] as usize];
+            let k = if tt[0] == p {
+                0
+            } else if tt[1] == p {
+                1
+            } else {
+                2
+            };
+            a[i] = tt[(k + 1) % 3];
+            b[i] = tt[(k + 2) % 3];
+        }
+        // next[i]: the triangle whose `a` is `b[i]`; the `a`s must be distinct.
+        let mut next = [u8::MAX; 16];
+        let mut has_prev = [false; 16];
+        let mut open = 0;
+        for i in 0..fl {
+            for j in 0..fl {
+                if a[j] == b[i] {
+                    if next[i] != u8::MAX || has_prev[j] {
+                        return None;
+                    }
+                    next[i] = j as u8;
+                    has_prev[j] = true;
+                }
+            }
+            if next[i] == u8::MAX {
+                open += 1;
+            }
+        }
+        let start = match open {
+            0 => 0,
+            1 => (0..fl).find(|&j| !has_prev[j])?,
+            _ => return None,
+        };
+        // One walk must visit every triangle (one cycle, or one path for a border).
+        let mut i = start;
+        let mut steps = 1;
+        while next[i] != u8::MAX && next[i] as usize != start {
+            i = next[i] as usize;
+            steps += 1;
+            if steps > fl {
+                return None;
+            }
+        }
+        (steps == fl).then_some(open == 1)
     }
 
     #[inline]

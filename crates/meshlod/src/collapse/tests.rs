@@ -311,3 +311,50 @@ fn collapse_never_splits_a_component() {
     );
     assert_eq!(MeshStats::of(&m).topology.components, 1);
 }
+
+/// The classification fast path (one oriented fan) agrees with the general one
+/// wherever it answers, and declines fans it cannot judge: a point whose fan has
+/// one triangle wound the other way (point 0 below, triangle (0,2,3) reversed) is
+/// still a manifold point by the general rule, but not an oriented fan.
+/// ```text
+///     3-----2
+///    / \   / \
+///   4---0-----1     (0,1,2) (0,3,2)! (0,3,4) (0,4,5) (0,5,1)
+///    \  |  /
+///       5
+/// ```
+#[test]
+fn classification_fast_path_agrees() {
+    let mut flipped = Mesh::from_triangles(
+        vec![
+            [0.0, 0.0, 0.0],
+            [1.0, 0.0, 0.0],
+            [0.5, 1.0, 0.0],
+            [-0.5, 1.0, 0.0],
+            [-1.0, 0.0, 0.0],
+            [0.0, -1.0, 0.0],
+        ],
+        vec![[0, 1, 2], [0, 3, 2], [0, 3, 4], [0, 4, 5], [0, 5, 1]],
+    );
+    let s = surface(&flipped);
+    assert_eq!(s.single_oriented_fan(0), None);
+    assert_eq!(s.kind(0), VertexKind::Manifold);
+    flipped.triangles[1] = [0, 2, 3];
+    let s = surface(&flipped);
+    assert_eq!(s.single_oriented_fan(0), Some(false));
+    // Whole meshes, closed and open: every point is judged by the fast path.
+    for m in [
+        generate::icosphere(2),
+        generate::grid(4, 3, |x, y| x * y),
+        generate::torus(8, 5, 2.0, 0.5),
+    ] {
+        let s = surface(&m);
+        for p in 0..s.point_count() as u32 {
+            match s.single_oriented_fan(p) {
+                Some(false) => assert_eq!(s.kind(p), VertexKind::Manifold),
+                Some(true) => assert_eq!(s.kind(p), VertexKind::Border),
+                None => panic!("point {p} of an oriented mesh was not judged"),
+            }
+        }
+    }
+}

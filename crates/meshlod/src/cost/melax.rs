@@ -43,7 +43,8 @@
 
 use super::{Candidate, CostModel};
 use crate::collapse::{CollapseRecord, Moves, Surface};
-use crate::quadric::{cross, dot, sub};
+use crate::metrics::bvh::Bvh;
+use crate::quadric::{add, cross, dot, scale, sub};
 
 /// Settings of [`Melax`].
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -71,10 +72,51 @@ impl Default for MelaxOptions {
 ///
 /// State: the unit normal of every triangle slot, refreshed around the survivor
 /// after each collapse (before [`CostModel::init`] normals are computed on demand).
-#[derive(Debug, Clone, Default)]
+#[derive(Debug, Clone)]
 pub struct Melax {
     options: MelaxOptions,
     normals: Vec<[f64; 3]>,
+    /// The input surface (built by [`CostModel::init`] when the guard is on).
+    input: Option<Box<Input>>,
+    guard: bool,
+}
+
+/// The input surface as [`Melax::init`] saw it, for the facing guard.
+#[derive(Debug, Clone)]
+struct Input {
+    bvh: Bvh,
+    /// Twice-area normal of each input triangle, in BVH numbering.
+    normal: Vec<[f64; 3]>,
+    /// Per triangle slot: its input triangle in BVH numbering (a start for queries).
+    hint: Vec<u32>,
+    /// Per triangle slot: whether the live triangle faces away from the input.
+    away: Vec<bool>,
+    /// Added per extra triangle facing away: more than any plain cost.
+    tier: f64,
+}
+
+impl Input {
+    /// Whether triangle `[a, b, c]` (absolute coordinates) faces away from the input
+    /// triangle closest to its centroid.
+    fn faces_away(&self, [a, b, c]: [[f64; 3]; 3], hint: u32) -> bool {
+        let n = cross(sub(b, a), sub(c, a));
+        let centroid = scale(add(add(a, b), c), 1.0 / 3.0);
+        let hint = (hint != u32::MAX).then_some(hint);
+        self.bvh
+            .closest(centroid, hint)
+            .is_some_and(|cl| dot(n, self.normal[cl.triangle as usize]) < 0.0)
+    }
+
+    fn slot_faces_away(&self, surface: &Surface, t: u32) -> bool {
+        let tt = surface.triangle(t);
+        self.faces_away(tt.map(|p| surface.position(p).map(f64::from)), self.hint[t as usize])
+    }
+}
+
+impl Default for Melax {
+    fn default() -> Self {
+        Self::new(MelaxOptions::default())
+    }
 }
 
 /// Unit normal of triangle `t` (zero when degenerate).
@@ -96,7 +138,33 @@ impl Melax {
         Self {
             options,
             normals: Vec::new(),
+            input: None,
+            guard: std::env::var("MELAX_GUARD").as_deref() != Ok("none"),
         }
+    }
+
+    /// How many more triangles face away from the input after removing `u` onto
+    /// `v` than before (0 when fewer or as many, or before [`CostModel::init`]).
+    fn more_facing_away(&self, surface: &Surface, u: u32, v: u32) -> usize {
+        let Some(input) = &self.input else { return 0 };
+        let (mut before, mut after) = (0usize, 0usize);
+        let pv = surface.position(v).map(f64::from);
+        for &t in surface.fan(u) {
+            before += usize::from(input.away[t as usize]);
+            let tt = surface.triangle(t);
+            if tt.contains(&v) {
+                continue;
+            }
+            let corners = tt.map(|p| {
+                if p == u {
+                    pv
+                } else {
+                    surface.position(p).map(f64::from)
+                }
+            });
+            after += usize::from(input.faces_away(corners, input.hint[t as usize]));
+        }
+        after.saturating_sub(before)
     }
 
     /// The cost of removing `u` onto `v`, or `None` when they share no triangle.
@@ -213,6 +281,56 @@ impl CostModel for Melax {
                 }
             })
             .collect();
+        self.input = None;
+        if self.guard {
+            let pos: Vec<[f32; 3]> = (0..surface.point_count() as u32)
+                .map(|p| surface.position(p))
+                .collect();
+            let mut tris = Vec::new();
+            let mut normal = Vec::new();
+            let mut hint = vec![u32::MAX; surface.triangle_slots()];
+            for t in 0..surface.triangle_slots() as u32 {
+                let tt = surface.triangle(t);
+                if tt[0] != crate::collapse::DEAD {
+                    hint[t as usize] = tris.len() as u32;
+                    tris.push(tt);
+                    let [a, b, c] = tt.map(|p| surface.local(p));
+                    normal.push(cross(sub(b, a), sub(c, a)));
+                }
+            }
+            let input = Input {
+                bvh: Bvh::build(&pos, &tris),
+                normal,
+                away: vec![false; hint.len()],
+                hint,
+                tier: 4.0 * surface.diagonal() + 1.0,
+            };
+            let away = (0..surface.triangle_slots() as u32)
+                .map(|t| input.hint[t as usize] != u32::MAX && input.slot_faces_away(surface, t))
+                .collect();
+            self.input = Some(Box::new(Input { away, ..input }));
+        }
+    }
+
+    fn confirm(&self, surface: &Surface, candidate: &Candidate) -> f64 {
+        let Some(input) = &self.input else {
+            return candidate.cost;
+        };
+        let extra = self.more_facing_away(surface, candidate.removed, candidate.kept);
+        if extra == 0 {
+            return candidate.cost;
+        }
+        match std::env::var("PEN").as_deref() {
+            Ok("len") => {
+                let d = sub(surface.local(candidate.removed), surface.local(candidate.kept));
+                candidate.cost + dot(d, d).sqrt() * extra as f64
+            }
+            Ok("len1") => {
+                let d = sub(surface.local(candidate.removed), surface.local(candidate.kept));
+                candidate.cost + dot(d, d).sqrt()
+            }
+            _ => candidate.cost + input.tier * extra as f64,
+        }
     }
 
     fn evaluate(&self, surface: &Surface, a: u32, b: u32, moves: &Moves) -> Option<Candidate> {
@@ -248,6 +366,16 @@ impl CostModel for Melax {
         }
         for &t in surface.fan(record.kept) {
             self.normals[t as usize] = unit_normal(surface, t);
+        }
+        if let Some(input) = &mut self.input {
+            for &t in &record.removed_triangles {
+                if t != crate::collapse::DEAD {
+                    input.away[t as usize] = false;
+                }
+            }
+            for &t in surface.fan(record.kept) {
+                input.away[t as usize] = input.slot_faces_away(surface, t);
+            }
         }
     }
 }

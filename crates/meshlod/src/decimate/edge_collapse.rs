@@ -338,9 +338,16 @@ pub fn run<C: CostModel + ?Sized>(
             out.rejections.filter += 1;
             continue;
         }
+        // Lazy keys: the exact priority may be higher than the queued one.
+        let exact = d.cost.confirm(d.surface, &c);
+        let requeued = Item { cost_bits: 0, ..e }.with_cost(exact);
+        if exact > c.cost && requeued.cost_bits > e.cost_bits {
+            d.heap.push(requeued);
+            continue;
+        }
         observer.before_collapse(d.surface, c.removed, c.kept);
         let mut record = d.surface.collapse(c.removed, c.kept, p);
-        record.cost = c.cost;
+        record.cost = exact;
         record.error = c.error;
         d.cost.collapsed(d.surface, &record);
         out.collapses += 1;

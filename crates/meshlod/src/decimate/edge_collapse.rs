@@ -7,6 +7,9 @@
 //!    and are dropped when stale. The candidate is re-evaluated (its position is not
 //!    stored), checked against the maximum error, the operator's legality and the
 //!    filters, and performed.
+//!    Just before performing it, the cost model may raise its priority
+//!    ([`CostModel::confirm`], for a check too costly to run at every evaluation);
+//!    if it does, the candidate is queued again at the higher cost (lazy keys).
 //! 3. The survivor's version is bumped and its pairs are re-queued: O(valence) work
 //!    per collapse.
 //!    When a merged placement would fold a triangle over, the same pair is queued

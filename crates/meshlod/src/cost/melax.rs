@@ -488,6 +488,62 @@ mod tests {
         assert!(m.cost(&s, 0, 8).is_none());
     }
 
+    /// Triangles of `s` facing away from the input triangle of `input` nearest their
+    /// centroid.
+    fn facing_away(input: &Mesh, s: &Surface) -> usize {
+        let bvh = Bvh::build(&input.positions, &input.triangles);
+        let n = |[a, b, c]: [[f64; 3]; 3]| cross(sub(b, a), sub(c, a));
+        (0..s.triangle_slots() as u32)
+            .filter(|&t| s.triangle(t)[0] != crate::collapse::DEAD)
+            .filter(|&t| {
+                let c = s.triangle(t).map(|p| s.position(p).map(f64::from));
+                let centroid = scale(add(add(c[0], c[1]), c[2]), 1.0 / 3.0);
+                let cl = bvh.closest(centroid, None).expect("non-empty");
+                let it = input.triangles[cl.triangle as usize];
+                dot(
+                    n(c),
+                    n(it.map(|i| input.positions[i as usize].map(f64::from))),
+                ) < 0.0
+            })
+            .count()
+    }
+
+    #[test]
+    fn thin_disc_keeps_facing_the_input_only_with_the_guard() {
+        use crate::decimate::edge_collapse::{run, EdgeCollapseOptions};
+        use crate::decimate::{NoObserver, StopRule};
+        // A sphere squashed into a thin disc: coarse levels cross top and bottom.
+        let mut disc = crate::mesh::generate::icosphere(4);
+        for p in &mut disc.positions {
+            p[2] *= 0.03;
+        }
+        let mut counts = Vec::new();
+        for input_facing in [false, true] {
+            let (mut s, _) = Surface::build(&disc, &BuildOptions::default());
+            let mut m = Melax::new(MelaxOptions {
+                input_facing,
+                ..MelaxOptions::default()
+            });
+            let o = EdgeCollapseOptions {
+                stop: StopRule {
+                    target_triangles: 60,
+                    max_error: None,
+                },
+                ..EdgeCollapseOptions::default()
+            };
+            let out = run(&mut s, &mut m, &[], &o, &mut NoObserver);
+            assert!(s.live_triangles() <= 60, "{:?}", out.stop_reason);
+            counts.push(facing_away(&disc, &s));
+        }
+        eprintln!("facing away without / with the guard: {counts:?}");
+        // Measured: 17 of 60 without the guard, 1 with it.
+        assert!(
+            counts[0] >= 10,
+            "the disc should fold without the guard: {counts:?}"
+        );
+        assert!(counts[1] <= 2, "{counts:?}");
+    }
+
     #[test]
     fn border_corner_costs_its_turn() {
         let (s, _) = Surface::build(&folded(), &BuildOptions::default());

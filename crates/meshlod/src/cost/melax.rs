@@ -36,14 +36,44 @@
 //! formula alone). On flat regions both terms are 0, so it changes only the order of
 //! collapses that bend the surface.
 //!
-//! The model has no per-vertex state; normals are recomputed from the current
-//! surface (O(valence) per evaluation). The [`Candidate::error`] it reports is the
-//! cost itself: an edge length scaled by a curvature in `[0, 1]`, so a distance in
-//! mesh units (not a bound on the Hausdorff distance).
+//! # Facing the input
+//! The operator refuses a collapse that turns a triangle by 90° or more against its
+//! normal *before that collapse*, but many smaller turns add up: on coarse meshes
+//! (1% of the input) triangles across thin parts — legs, ears, drapery, wings with
+//! holes — end up facing away from the input surface they approximate, or one side
+//! of a thin part crosses the other. Half-edge collapses never move a point, so
+//! nothing in Melax's one-ring formula remembers where the surface was. This model
+//! adds that memory with the input itself ([`MelaxOptions::input_facing`], on by
+//! default): a triangle *faces away* when its normal has a negative dot product with
+//! the normal of the input triangle closest to its centroid (the fold-over measure
+//! of the shared-mesh tests; in the spirit of keeping the result close to the
+//! original surface as in Klein, Liebich & Straßer, "Mesh reduction with error
+//! control", Visualization 1996, and of Cohen et al.'s simplification envelopes,
+//! SIGGRAPH 1996, which forbid such crossings outright). A collapse whose surviving
+//! triangles include `k` more facing away than `u`'s fan did before gets `k ×`
+//! a tier larger than any plain cost added to its priority: it goes after every
+//! collapse that does not add one, in Melax's order among themselves, and still
+//! happens when nothing else is left, so the target is reached as before. It is a
+//! priority, not a veto.
+//!
+//! Cost: a closest-point tree over the input (built once, O(n log n)); per triangle
+//! slot the verdict, refreshed for the triangles a collapse changed. The check needs
+//! one closest-point query per surviving triangle, so it is not done when a pair is
+//! queued but when it is popped ([`CostModel::confirm`]: the queued Melax cost is a
+//! lower bound, a collapse that adds a facing-away triangle is queued again at its
+//! higher priority): O(valence) queries of O(log n) each per performed collapse.
+//! Everything is a function of the surface and the input, so runs stay
+//! deterministic and a progressive mesh records the same sequence.
+//!
+//! Normals are recomputed from the current surface (O(valence) per evaluation). The
+//! [`Candidate::error`] it reports is Melax's cost itself (without the tier): an edge
+//! length scaled by a curvature in `[0, 1]`, so a distance in mesh units (not a
+//! bound on the Hausdorff distance).
 
 use super::{Candidate, CostModel};
 use crate::collapse::{CollapseRecord, Moves, Surface};
-use crate::quadric::{cross, dot, sub};
+use crate::metrics::bvh::Bvh;
+use crate::quadric::{add, cross, dot, scale, sub};
 
 /// Settings of [`Melax`].
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -56,6 +86,9 @@ pub struct MelaxOptions {
     /// with normals `n` before and `n'` after. `0` gives Melax's formula alone.
     /// Default 1.
     pub turn_weight: f64,
+    /// Whether collapses that leave more triangles facing away from the input go
+    /// last (see the module docs, "Facing the input"). Default `true`.
+    pub input_facing: bool,
 }
 
 impl Default for MelaxOptions {
@@ -63,6 +96,7 @@ impl Default for MelaxOptions {
         Self {
             border_weight: 1.0,
             turn_weight: 1.0,
+            input_facing: true,
         }
     }
 }
@@ -70,11 +104,68 @@ impl Default for MelaxOptions {
 /// Melax's directional edge cost; always proposes half-edge collapses.
 ///
 /// State: the unit normal of every triangle slot, refreshed around the survivor
-/// after each collapse (before [`CostModel::init`] normals are computed on demand).
-#[derive(Debug, Clone, Default)]
+/// after each collapse (before [`CostModel::init`] normals are computed on demand),
+/// and with [`MelaxOptions::input_facing`] a closest-point tree over the input and
+/// per triangle slot whether it faces away from the input.
+#[derive(Debug, Clone)]
 pub struct Melax {
     options: MelaxOptions,
     normals: Vec<[f64; 3]>,
+    /// The input surface (built by [`CostModel::init`] with `input_facing`).
+    input: Option<Box<Input>>,
+}
+
+/// The input surface as [`Melax::init`] saw it, for the facing guard.
+#[derive(Debug, Clone)]
+struct Input {
+    bvh: Bvh,
+    /// Twice-area normal of each input triangle, in BVH numbering.
+    normal: Vec<[f64; 3]>,
+    /// Per triangle slot: its input triangle in BVH numbering (a start for queries).
+    hint: Vec<u32>,
+    /// Per triangle slot: whether the live triangle faces away from the input, and
+    /// the corners it had when that was decided.
+    away: Vec<bool>,
+    corners: Vec<[u32; 3]>,
+    /// Added per extra triangle facing away: more than any plain cost.
+    tier: f64,
+}
+
+impl Input {
+    /// Whether triangle `[a, b, c]` (absolute coordinates) faces away from the input
+    /// triangle closest to its centroid.
+    fn faces_away(&self, corners: [[f64; 3]; 3], hint: u32) -> bool {
+        self.closest_facing(corners, hint).0
+    }
+
+    /// Whether `[a, b, c]` faces away from the input triangle closest to its
+    /// centroid, and that triangle (BVH numbering; `u32::MAX` when none).
+    fn closest_facing(&self, [a, b, c]: [[f64; 3]; 3], hint: u32) -> (bool, u32) {
+        let n = cross(sub(b, a), sub(c, a));
+        let centroid = scale(add(add(a, b), c), 1.0 / 3.0);
+        let hint = (hint != u32::MAX).then_some(hint);
+        match self.bvh.closest(centroid, hint) {
+            Some(cl) => (dot(n, self.normal[cl.triangle as usize]) < 0.0, cl.triangle),
+            None => (false, u32::MAX),
+        }
+    }
+
+    /// Re-decides slot `t` and remembers the closest input triangle as its hint.
+    fn update_slot(&mut self, surface: &Surface, t: u32) {
+        let tt = surface.triangle(t);
+        let corners = tt.map(|p| surface.position(p).map(f64::from));
+        let (away, closest) = self.closest_facing(corners, self.hint[t as usize]);
+        self.away[t as usize] = away;
+        if closest != u32::MAX {
+            self.hint[t as usize] = closest;
+        }
+    }
+}
+
+impl Default for Melax {
+    fn default() -> Self {
+        Self::new(MelaxOptions::default())
+    }
 }
 
 /// Unit normal of triangle `t` (zero when degenerate).
@@ -96,7 +187,32 @@ impl Melax {
         Self {
             options,
             normals: Vec::new(),
+            input: None,
         }
+    }
+
+    /// How many more triangles face away from the input after removing `u` onto
+    /// `v` than before (0 when fewer or as many, or before [`CostModel::init`]).
+    fn more_facing_away(&self, surface: &Surface, u: u32, v: u32) -> usize {
+        let Some(input) = &self.input else { return 0 };
+        let (mut before, mut after) = (0usize, 0usize);
+        let pv = surface.position(v).map(f64::from);
+        for &t in surface.fan(u) {
+            before += usize::from(input.away[t as usize]);
+            let tt = surface.triangle(t);
+            if tt.contains(&v) {
+                continue;
+            }
+            let corners = tt.map(|p| {
+                if p == u {
+                    pv
+                } else {
+                    surface.position(p).map(f64::from)
+                }
+            });
+            after += usize::from(input.faces_away(corners, input.hint[t as usize]));
+        }
+        after.saturating_sub(before)
     }
 
     /// The cost of removing `u` onto `v`, or `None` when they share no triangle.
@@ -213,6 +329,58 @@ impl CostModel for Melax {
                 }
             })
             .collect();
+        self.input = None;
+        if self.options.input_facing {
+            let pos: Vec<[f32; 3]> = (0..surface.point_count() as u32)
+                .map(|p| surface.position(p))
+                .collect();
+            let mut tris = Vec::new();
+            let mut normal = Vec::new();
+            let mut hint = vec![u32::MAX; surface.triangle_slots()];
+            for t in 0..surface.triangle_slots() as u32 {
+                let tt = surface.triangle(t);
+                if tt[0] != crate::collapse::DEAD {
+                    hint[t as usize] = tris.len() as u32;
+                    tris.push(tt);
+                    let [a, b, c] = tt.map(|p| surface.local(p));
+                    normal.push(cross(sub(b, a), sub(c, a)));
+                }
+            }
+            let input = Input {
+                bvh: Bvh::build(&pos, &tris),
+                normal,
+                away: vec![false; hint.len()],
+                corners: (0..surface.triangle_slots() as u32)
+                    .map(|t| surface.triangle(t))
+                    .collect(),
+                hint,
+                // A plain cost is at most |u − v| ≤ diagonal times the largest
+                // curvature weight.
+                tier: 2.0
+                    * surface.diagonal()
+                    * self
+                        .options
+                        .border_weight
+                        .max(self.options.turn_weight)
+                        .max(1.0)
+                    + 1.0,
+            };
+            let mut input = input;
+            for t in 0..surface.triangle_slots() as u32 {
+                if input.hint[t as usize] != u32::MAX {
+                    input.update_slot(surface, t);
+                }
+            }
+            self.input = Some(Box::new(input));
+        }
+    }
+
+    fn confirm(&self, surface: &Surface, candidate: &Candidate) -> f64 {
+        let Some(input) = &self.input else {
+            return candidate.cost;
+        };
+        let extra = self.more_facing_away(surface, candidate.removed, candidate.kept);
+        candidate.cost + input.tier * extra as f64
     }
 
     fn evaluate(&self, surface: &Surface, a: u32, b: u32, moves: &Moves) -> Option<Candidate> {
@@ -248,6 +416,20 @@ impl CostModel for Melax {
         }
         for &t in surface.fan(record.kept) {
             self.normals[t as usize] = unit_normal(surface, t);
+        }
+        if let Some(input) = &mut self.input {
+            for &t in &record.removed_triangles {
+                if t != crate::collapse::DEAD {
+                    input.away[t as usize] = false;
+                }
+            }
+            for &t in surface.fan(record.kept) {
+                let tt = surface.triangle(t);
+                if input.corners[t as usize] != tt {
+                    input.corners[t as usize] = tt;
+                    input.update_slot(surface, t);
+                }
+            }
         }
     }
 }
@@ -304,6 +486,62 @@ mod tests {
         assert!(c43 > 0.01, "crease removal costs {c43}");
         // No shared triangle: no cost.
         assert!(m.cost(&s, 0, 8).is_none());
+    }
+
+    /// Triangles of `s` facing away from the input triangle of `input` nearest their
+    /// centroid.
+    fn facing_away(input: &Mesh, s: &Surface) -> usize {
+        let bvh = Bvh::build(&input.positions, &input.triangles);
+        let n = |[a, b, c]: [[f64; 3]; 3]| cross(sub(b, a), sub(c, a));
+        (0..s.triangle_slots() as u32)
+            .filter(|&t| s.triangle(t)[0] != crate::collapse::DEAD)
+            .filter(|&t| {
+                let c = s.triangle(t).map(|p| s.position(p).map(f64::from));
+                let centroid = scale(add(add(c[0], c[1]), c[2]), 1.0 / 3.0);
+                let cl = bvh.closest(centroid, None).expect("non-empty");
+                let it = input.triangles[cl.triangle as usize];
+                dot(
+                    n(c),
+                    n(it.map(|i| input.positions[i as usize].map(f64::from))),
+                ) < 0.0
+            })
+            .count()
+    }
+
+    #[test]
+    fn thin_disc_keeps_facing_the_input_only_with_the_guard() {
+        use crate::decimate::edge_collapse::{run, EdgeCollapseOptions};
+        use crate::decimate::{NoObserver, StopRule};
+        // A sphere squashed into a thin disc: coarse levels cross top and bottom.
+        let mut disc = crate::mesh::generate::icosphere(4);
+        for p in &mut disc.positions {
+            p[2] *= 0.03;
+        }
+        let mut counts = Vec::new();
+        for input_facing in [false, true] {
+            let (mut s, _) = Surface::build(&disc, &BuildOptions::default());
+            let mut m = Melax::new(MelaxOptions {
+                input_facing,
+                ..MelaxOptions::default()
+            });
+            let o = EdgeCollapseOptions {
+                stop: StopRule {
+                    target_triangles: 60,
+                    max_error: None,
+                },
+                ..EdgeCollapseOptions::default()
+            };
+            let out = run(&mut s, &mut m, &[], &o, &mut NoObserver);
+            assert!(s.live_triangles() <= 60, "{:?}", out.stop_reason);
+            counts.push(facing_away(&disc, &s));
+        }
+        eprintln!("facing away without / with the guard: {counts:?}");
+        // Measured: 17 of 60 without the guard, 1 with it.
+        assert!(
+            counts[0] >= 10,
+            "the disc should fold without the guard: {counts:?}"
+        );
+        assert!(counts[1] <= 2, "{counts:?}");
     }
 
     #[test]

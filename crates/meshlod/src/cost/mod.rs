@@ -53,4 +53,16 @@ pub trait CostModel {
 
     /// Updates the state after `record` was performed (`surface` is already updated).
     fn collapsed(&mut self, surface: &Surface, record: &CollapseRecord);
+
+    /// The exact priority of `candidate` (which the operator and the filters have
+    /// accepted), for a model whose [`CostModel::evaluate`] cost is a cheaper lower
+    /// bound. The driver calls it just before performing a candidate; a value above
+    /// the queued cost re-queues the candidate at that value (lazy keys), so a
+    /// costly refinement is computed once per performed collapse instead of once per
+    /// evaluation. Must be `>= candidate.cost` and depend only on the surface and the
+    /// model's state. Default: `candidate.cost`.
+    fn confirm(&self, surface: &Surface, candidate: &Candidate) -> f64 {
+        let _ = surface;
+        candidate.cost
+    }
 }

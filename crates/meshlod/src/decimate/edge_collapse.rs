@@ -7,6 +7,9 @@
 //!    and are dropped when stale. The candidate is re-evaluated (its position is not
 //!    stored), checked against the maximum error, the operator's legality and the
 //!    filters, and performed.
+//!    Just before performing it, the cost model may raise its priority
+//!    ([`CostModel::confirm`], for a check too costly to run at every evaluation);
+//!    if it does, the candidate is queued again at the higher cost (lazy keys).
 //! 3. The survivor's version is bumped and its pairs are re-queued: O(valence) work
 //!    per collapse.
 //!    When a merged placement would fold a triangle over, the same pair is queued
@@ -338,9 +341,16 @@ pub fn run<C: CostModel + ?Sized>(
             out.rejections.filter += 1;
             continue;
         }
+        // Lazy keys: the exact priority may be higher than the queued one.
+        let exact = d.cost.confirm(d.surface, &c);
+        let requeued = Item { cost_bits: 0, ..e }.with_cost(exact);
+        if exact > c.cost && requeued.cost_bits > e.cost_bits {
+            d.heap.push(requeued);
+            continue;
+        }
         observer.before_collapse(d.surface, c.removed, c.kept);
         let mut record = d.surface.collapse(c.removed, c.kept, p);
-        record.cost = c.cost;
+        record.cost = exact;
         record.error = c.error;
         d.cost.collapsed(d.surface, &record);
         out.collapses += 1;

@@ -10,16 +10,31 @@ use super::Representative;
 use crate::quadric::{Quadric, DEFAULT_CONDITION};
 
 /// A triangle prepared once: corners relative to the grid origin (f64), its unit
-/// normal and plane offset (relative to the grid origin), and its area.
+/// normal and plane offset (relative to the grid origin), its area, and the parts of
+/// its area-weighted plane quadric that do not depend on the frame.
 #[derive(Debug, Clone, Copy)]
 pub(crate) struct Prepared {
     pub p: [[f64; 3]; 3],
     pub n: [f64; 3],
     pub d: f64,
     pub area: f64,
+    /// `area · nᵢ nⱼ` in the order of [`Quadric::m`]: xx, xy, xz, yy, yz, zz.
+    pub nn: [f64; 6],
+    /// `area · n`.
+    pub an: [f64; 3],
 }
 
 impl Prepared {
+    /// A zero-area triangle at the origin (a placeholder).
+    pub const ZERO: Self = Self {
+        p: [[0.0; 3]; 3],
+        n: [0.0; 3],
+        d: 0.0,
+        area: 0.0,
+        nn: [0.0; 6],
+        an: [0.0; 3],
+    };
+
     /// Prepares the triangle `corners` for a grid at `origin`.
     #[inline]
     pub fn new(corners: &[[f32; 3]; 3], origin: [f64; 3]) -> Self {
@@ -33,20 +48,27 @@ impl Prepared {
         ];
         let len = (c[0] * c[0] + c[1] * c[1] + c[2] * c[2]).sqrt();
         if len > 0.0 && len.is_finite() {
-            let n = c.map(|x| x / len);
+            let inv = 1.0 / len;
+            let n = c.map(|x| x * inv);
+            let area = 0.5 * len;
+            let an = n.map(|x| area * x);
             Self {
                 p,
                 n,
                 d: -(n[0] * p[0][0] + n[1] * p[0][1] + n[2] * p[0][2]),
-                area: 0.5 * len,
+                area,
+                nn: [
+                    an[0] * n[0],
+                    an[0] * n[1],
+                    an[0] * n[2],
+                    an[1] * n[1],
+                    an[1] * n[2],
+                    an[2] * n[2],
+                ],
+                an,
             }
         } else {
-            Self {
-                p,
-                n: [0.0; 3],
-                d: 0.0,
-                area: 0.0,
-            }
+            Self { p, ..Self::ZERO }
         }
     }
 }
@@ -81,8 +103,20 @@ pub(crate) fn contribute(
     quadric: bool,
 ) {
     if quadric && t.area > 0.0 {
+        // `area · (n, d)(n, d)ᵀ` with the plane offset in the cell's frame.
         let d = t.d + t.n[0] * corner[0] + t.n[1] * corner[1] + t.n[2] * corner[2];
-        acc.q.add(&Quadric::from_plane(t.n, d, t.area));
+        let m = &mut acc.q.m;
+        m[0] += t.nn[0];
+        m[1] += t.nn[1];
+        m[2] += t.nn[2];
+        m[3] += t.an[0] * d;
+        m[4] += t.nn[3];
+        m[5] += t.nn[4];
+        m[6] += t.an[1] * d;
+        m[7] += t.nn[5];
+        m[8] += t.an[2] * d;
+        m[9] += t.area * d * d;
+        acc.q.weight += t.area;
     }
     for k in 0..3 {
         if mask[k] {

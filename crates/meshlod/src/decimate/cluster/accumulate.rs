@@ -38,17 +38,16 @@ impl Prepared {
     /// Prepares the triangle `corners` for a grid at `origin`.
     #[inline]
     pub fn new(corners: &[[f32; 3]; 3], origin: [f64; 3]) -> Self {
-        let p = corners.map(|c| std::array::from_fn(|k| f64::from(c[k]) - origin[k]));
-        let e1 = sub(p[1], p[0]);
-        let e2 = sub(p[2], p[0]);
-        let c = [
-            e1[1] * e2[2] - e1[2] * e2[1],
-            e1[2] * e2[0] - e1[0] * e2[2],
-            e1[0] * e2[1] - e1[1] * e2[0],
-        ];
-        let len = (c[0] * c[0] + c[1] * c[1] + c[2] * c[2]).sqrt();
+        let (p, c, len2) = cross(corners, origin);
+        let len = len2.sqrt();
+        Self::from_parts(p, c, len, 1.0 / len)
+    }
+
+    /// The rest of [`Self::new`] from the corners, the cross product `c` of the
+    /// edges, its length and the inverse of its length.
+    #[inline]
+    fn from_parts(p: [[f64; 3]; 3], c: [f64; 3], len: f64, inv: f64) -> Self {
         if len > 0.0 && len.is_finite() {
-            let inv = 1.0 / len;
             let n = c.map(|x| x * inv);
             let area = 0.5 * len;
             let an = n.map(|x| area * x);
@@ -73,6 +72,55 @@ impl Prepared {
     }
 }
 
+/// Triangles per block of [`prepare_block`].
+pub(crate) const BLOCK: usize = 64;
+
+/// The corners relative to `origin`, the cross product of the edges and its squared
+/// length.
+#[inline]
+fn cross(corners: &[[f32; 3]; 3], origin: [f64; 3]) -> ([[f64; 3]; 3], [f64; 3], f64) {
+    let p = corners.map(|c| std::array::from_fn(|k| f64::from(c[k]) - origin[k]));
+    let e1 = sub(p[1], p[0]);
+    let e2 = sub(p[2], p[0]);
+    let c = [
+        e1[1] * e2[2] - e1[2] * e2[1],
+        e1[2] * e2[0] - e1[0] * e2[2],
+        e1[0] * e2[1] - e1[1] * e2[0],
+    ];
+    (p, c, c[0] * c[0] + c[1] * c[1] + c[2] * c[2])
+}
+
+/// [`Prepared::new`] on `n ≤ BLOCK` triangles, `corners(i)` for `i < n`, into
+/// `out[..n]`: the same values bit for bit, with the square roots and divisions in
+/// loops of their own so that they pipeline (and vectorise).
+#[inline]
+pub(crate) fn prepare_block(
+    n: usize,
+    corners: impl Fn(usize) -> [[f32; 3]; 3],
+    origin: [f64; 3],
+    out: &mut [Prepared; BLOCK],
+) {
+    let n = n.min(BLOCK);
+    let mut c = [[0.0f64; 3]; BLOCK];
+    let mut len = [0.0f64; BLOCK];
+    for i in 0..n {
+        let (p, ci, l2) = cross(&corners(i), origin);
+        out[i].p = p;
+        c[i] = ci;
+        len[i] = l2;
+    }
+    for l in &mut len[..n] {
+        *l = l.sqrt();
+    }
+    let mut inv = [0.0f64; BLOCK];
+    for (v, l) in inv[..n].iter_mut().zip(&len[..n]) {
+        *v = 1.0 / *l;
+    }
+    for i in 0..n {
+        out[i] = Prepared::from_parts(out[i].p, c[i], len[i], inv[i]);
+    }
+}
+
 /// The sums of one cell.
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
 pub(crate) struct Acc {
@@ -93,7 +141,7 @@ pub(crate) struct Acc {
 /// grid origin). `mask` says which corners lie in the cell; `weights` are the corner
 /// weights of the average. The plane quadric is added once per cell the triangle
 /// touches (Lindstrom 2000), when `quadric` is set.
-#[inline]
+#[inline(always)]
 pub(crate) fn contribute(
     acc: &mut Acc,
     corner: [f64; 3],
@@ -129,6 +177,38 @@ pub(crate) fn contribute(
             acc.w += w;
             acc.n += 1.0;
         }
+    }
+}
+
+#[cfg(test)]
+#[test]
+fn blocks_prepare_bit_for_bit() {
+    let tris: Vec<[[f32; 3]; 3]> = (0..100)
+        .map(|i| {
+            let f = i as f32;
+            [
+                [f.sin(), f.cos(), 0.3 * f],
+                [f.cos() * 2.0, 1.0 + f, f.sin()],
+                // Every tenth triangle is degenerate (a repeated corner).
+                if i % 10 == 0 {
+                    [f.sin(), f.cos(), 0.3 * f]
+                } else {
+                    [0.5, -f, 2.0]
+                },
+            ]
+        })
+        .collect();
+    let origin = [-1.0, -2.0, 0.5];
+    let mut out = [Prepared::ZERO; BLOCK];
+    prepare_block(tris.len() - BLOCK, |i| tris[BLOCK + i], origin, &mut out);
+    for i in 0..tris.len() - BLOCK {
+        let a = Prepared::new(&tris[BLOCK + i], origin);
+        let b = out[i];
+        assert_eq!(
+            (a.p, a.n, a.d.to_bits(), a.area.to_bits(), a.nn, a.an),
+            (b.p, b.n, b.d.to_bits(), b.area.to_bits(), b.nn, b.an),
+            "triangle {i}"
+        );
     }
 }
 

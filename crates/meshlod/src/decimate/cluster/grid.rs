@@ -58,13 +58,14 @@ impl Grid {
     #[inline]
     #[must_use]
     pub fn coords(&self, p: [f32; 3]) -> [u32; 3] {
-        std::array::from_fn(|k| {
+        // For x ≥ 0 the saturating cast truncates, which is floor (and avoids a libm
+        // call); negatives and NaN become 0; the clamp keeps rounding at the far face
+        // in.
+        let axis = |k: usize| {
             let x = (f64::from(p[k]) - self.origin[k]) * self.inv;
-            // For x ≥ 0 the saturating cast truncates, which is floor (and avoids a
-            // libm call); negatives and NaN become 0; the clamp keeps rounding at the
-            // far face in.
             (x.max(0.0) as u32).min(self.dims[k] - 1)
-        })
+        };
+        [axis(0), axis(1), axis(2)]
     }
 
     /// The packed key of a point's cell: `i << 42 | j << 21 | k`.
@@ -272,7 +273,15 @@ impl TripleSet {
     #[inline]
     pub fn insert(&mut self, t: [u32; 3]) -> bool {
         let mut s = t;
-        s.sort_unstable();
+        if s[0] > s[1] {
+            s.swap(0, 1);
+        }
+        if s[1] > s[2] {
+            s.swap(1, 2);
+        }
+        if s[0] > s[1] {
+            s.swap(0, 1);
+        }
         let h = mix((u64::from(s[0]) << 32 | u64::from(s[1])) ^ mix(u64::from(s[2])));
         let mut i = h as usize & self.mask;
         loop {

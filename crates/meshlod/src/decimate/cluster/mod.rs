@@ -88,7 +88,7 @@ use crate::io::stream;
 use crate::io::IoError;
 use crate::mesh::{Mesh, Weld};
 use crate::simplify::Distance;
-use accumulate::{contribute, representative, Acc, Prepared};
+use accumulate::{contribute, prepare_block, representative, Acc, Prepared, BLOCK};
 use grid::KeyTriples;
 pub use grid::{CellTable, Grid, TripleSet, MAX_CELLS_PER_AXIS};
 use rayon::prelude::*;
@@ -794,9 +794,6 @@ impl Sampler {
     }
 }
 
-/// Triangles per block of the in-memory accumulation.
-const BLOCK: usize = 64;
-
 /// Minimum items per parallel task in the per-vertex and per-triangle maps.
 const PAR_MIN: usize = 1 << 14;
 
@@ -812,11 +809,23 @@ fn count_distinct(
     set.reset(goal + goal / 4);
     let distinct = |k: &[u64; 3]| (k[0] != k[1]) & (k[1] != k[2]) & (k[0] != k[2]);
     if n < 4 * PAR_MIN || rayon::current_num_threads() == 1 {
+        // Without a branch per triangle: every triangle is written to the buffer,
+        // which only advances past the distinct ones.
+        let mut buf = [[0u64; 3]; 256];
+        let mut m = 0;
         for t in 0..n {
             let k = keys_of(t);
-            if distinct(&k) {
-                set.insert(k);
+            buf[m] = k;
+            m += usize::from(distinct(&k));
+            if m == buf.len() {
+                for k in &buf {
+                    set.insert(*k);
+                }
+                m = 0;
             }
+        }
+        for k in &buf[..m] {
+            set.insert(*k);
         }
     } else {
         let chunks: Vec<Vec<[u64; 3]>> = (0..n.div_ceil(PAR_MIN))
@@ -1002,7 +1011,12 @@ impl Pipeline for InMemory<'_> {
         let mut accs = vec![Acc::default(); cells];
         let quadric = how == Representative::Quadric;
         let grid = &grid;
-        let table_ref = &table;
+        let corners: Vec<[f64; 3]> = table
+            .keys()
+            .iter()
+            .map(|&k| grid.corner(grid::unpack(k)))
+            .collect();
+        let corners = &corners[..];
         let vcell_ref = &vcell;
         // Workers own contiguous ranges of cells; each scans the triangles in order, so
         // every cell adds its contributions in input order (as the streaming path).
@@ -1022,17 +1036,19 @@ impl Pipeline for InMemory<'_> {
                     which[m] = t as u32;
                     m += usize::from(owned(c[0]) | owned(c[1]) | owned(c[2]));
                 }
-                for (plane, &t) in planes.iter_mut().zip(&which[..m]) {
-                    let corners = mesh.triangles[t as usize].map(|v| mesh.positions[v as usize]);
-                    *plane = Prepared::new(&corners, grid.origin);
-                }
+                prepare_block(
+                    m,
+                    |i| mesh.triangles[which[i] as usize].map(|v| mesh.positions[v as usize]),
+                    grid.origin,
+                    &mut planes,
+                );
                 for (plane, &t) in planes.iter().zip(&which[..m]) {
                     let tri = &mesh.triangles[t as usize];
                     let c = tri.map(|v| vcell_ref[v as usize]);
                     let w = corner_weights(plane, how, |k| {
                         factors.map_or(1.0, |f| f64::from(f[tri[k] as usize]))
                     });
-                    add_to_cells(plane, c, w, quadric, grid, table_ref, part, start);
+                    add_to_cells(plane, c, w, quadric, corners, part, start);
                 }
             }
         };
@@ -1155,19 +1171,22 @@ fn build_streamed(
     let cells = expected_cells(expect);
     let mut table = CellTable::for_grid(grid, cells, (16 * cells).max(1 << 16));
     let mut accs: Vec<Acc> = Vec::with_capacity(cells);
+    let mut corners: Vec<[f64; 3]> = Vec::with_capacity(cells);
     let (mut stage1, mut set) = Stage1::new(expect);
     let s = stream::for_each_triangle(path, |tri, group| {
         let c = tri.map(|p| {
-            let id = table.id(grid.key(p));
+            let key = grid.key(p);
+            let id = table.id(key);
             if id as usize == accs.len() {
                 accs.push(Acc::default());
+                corners.push(grid.corner(grid::unpack(key)));
             }
             id
         });
         stage1.push(&mut set, c, group);
         let t = Prepared::new(tri, grid.origin);
         let w = corner_weights(&t, how, |_| 1.0);
-        add_to_cells(&t, c, w, quadric, grid, &table, &mut accs, 0);
+        add_to_cells(&t, c, w, quadric, &corners, &mut accs, 0);
     })?;
     let set_bytes = set.bytes();
     drop(set);
@@ -1192,25 +1211,31 @@ fn build_streamed(
 fn corner_weights(t: &Prepared, how: Representative, factor: impl Fn(usize) -> f64) -> [f64; 3] {
     match how {
         Representative::Average => [1.0; 3],
-        Representative::Quadric => [t.area / 3.0; 3],
-        Representative::Weighted => std::array::from_fn(|k| t.area / 3.0 * factor(k)),
+        // The mean is Σ wᵢ pᵢ / Σ wᵢ: the common factor 1/3 of `Aₜ/3` cancels.
+        Representative::Quadric => [t.area; 3],
+        Representative::Weighted => std::array::from_fn(|k| t.area * factor(k)),
     }
 }
 
 /// Adds triangle `t` with corner cells `c` to each distinct cell among
 /// `start .. start + accs.len()` (the in-memory workers own a range of cells).
-#[inline]
+#[inline(always)]
 #[allow(clippy::too_many_arguments)]
 fn add_to_cells(
     t: &Prepared,
     c: [u32; 3],
     w: [f64; 3],
     quadric: bool,
-    grid: &Grid,
-    table: &CellTable,
+    corners: &[[f64; 3]],
     accs: &mut [Acc],
     start: u32,
 ) {
+    if c[0] == c[1] && c[1] == c[2] {
+        if let Some(a) = accs.get_mut(c[0].wrapping_sub(start) as usize) {
+            contribute(a, corners[c[0] as usize], t, [true; 3], w, quadric);
+        }
+        return;
+    }
     for k in 0..3 {
         if (k >= 1 && c[k] == c[0]) || (k == 2 && c[2] == c[1]) {
             continue;
@@ -1220,8 +1245,7 @@ fn add_to_cells(
             .and_then(|i| accs.get_mut(i as usize))
         {
             let mask = [c[0] == c[k], c[1] == c[k], c[2] == c[k]];
-            let corner = grid.corner(grid::unpack(table.key(c[k])));
-            contribute(a, corner, t, mask, w, quadric);
+            contribute(a, corners[c[k] as usize], t, mask, w, quadric);
         }
     }
 }

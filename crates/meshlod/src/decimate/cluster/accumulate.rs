@@ -166,6 +166,18 @@ pub(crate) fn contribute(
         m[9] += t.area * d * d;
         acc.q.weight += t.area;
     }
+    if mask == [true; 3] && weights[0] == weights[1] && weights[1] == weights[2] {
+        // The whole triangle in the cell with one weight (the usual case): one sum.
+        let w = weights[0];
+        for j in 0..3 {
+            let s = t.p[0][j] + t.p[1][j] + t.p[2][j];
+            acc.wsum[j] += w * s;
+            acc.psum[j] += s;
+        }
+        acc.w += 3.0 * w;
+        acc.n += 3.0;
+        return;
+    }
     for k in 0..3 {
         if mask[k] {
             let p = t.p[k];

@@ -348,6 +348,12 @@ struct Search {
 }
 
 impl Search {
+    /// Probes of one [`Self::run`] after which a count within the loose tolerance
+    /// does.
+    const PATIENCE: usize = 6;
+    /// Most probes of one [`Self::run`].
+    const MAX_PROBES: usize = 16;
+
     fn new(lo: [f64; 3], hi: [f64; 3]) -> Self {
         Self {
             lo,
@@ -416,13 +422,15 @@ impl Search {
     }
 
     /// Searches ε with `count(grid)` within `tol` of `goal`, starting at `eps0` (or
-    /// from the earlier probes). Returns the ε of the closest probe and its count
-    /// (`None` for a goal of 0: the coarsest grid, not probed).
+    /// from the earlier probes); after [`Self::PATIENCE`] probes a probe within
+    /// `loose` does, and it stops after [`Self::MAX_PROBES`] (small goals: the count
+    /// jumps between neighbouring grids). Returns the ε of the closest probe and its
+    /// count (`None` for a goal of 0: the coarsest grid, not probed).
     fn run(
         &mut self,
         goal: usize,
         eps0: f64,
-        tol: f64,
+        (tol, loose): (f64, f64),
         mut count: impl FnMut(&Grid) -> usize,
     ) -> (f64, Option<usize>) {
         let extent = (0..3)
@@ -440,7 +448,14 @@ impl Search {
         }
         let mut eps = self.next(goal).unwrap_or(eps0);
         eps = eps.clamp(f64::MIN_POSITIVE, coarsest);
-        for _ in 0..24 {
+        for probe in 0..Self::MAX_PROBES {
+            if probe >= Self::PATIENCE
+                && self
+                    .closest(goal)
+                    .is_some_and(|b| (b.1 as f64 - goal as f64).abs() <= loose * goal as f64)
+            {
+                break;
+            }
             let grid = Grid::new(self.lo, self.hi, eps);
             eps = grid.cell;
             let c = match self.probes.iter().find(|p| p.0 == eps) {
@@ -644,7 +659,8 @@ fn drive<P: Pipeline>(
     let mut kept: Option<(usize, P::Staged)> = None;
     let mut done: Option<Clustered> = None;
     for round in 0..3 {
-        let (e, probe) = search.run(goal, eps, (0.4 * tol).min(0.02), |g| p.count(g, goal));
+        let tols = ((0.4 * tol).min(0.02), 0.8 * tol);
+        let (e, probe) = search.run(goal, eps, tols, |g| p.count(g, goal));
         eps = e;
         let (staged, got) = p.stage(&Grid::new(lo, hi, eps), goal);
         builds += 1;
@@ -972,8 +988,8 @@ impl Pipeline for InMemory<'_> {
         };
         // Cells of the vertices, ids in vertex order (the streaming path numbers them
         // in corner order; the numbering changes nothing else). The flat table costs 4
-        // bytes per grid cell: allowed up to about two per vertex.
-        let dense_limit = (2 * mesh.positions.len()).max(1 << 18);
+        // bytes per grid cell: allowed up to eight per vertex.
+        let dense_limit = (8 * mesh.positions.len()).max(1 << 12);
         let mut table = CellTable::for_grid(grid, expected_cells(expect), dense_limit);
         let vcell: Vec<u32> = self.keys.iter().map(|&k| table.id(k)).collect();
         let (mut stage1, mut set) = Stage1::new(expect);
@@ -1053,7 +1069,8 @@ impl Pipeline for InMemory<'_> {
             }
         };
         let shards = rayon::current_num_threads().clamp(1, 64);
-        if shards == 1 || mesh.triangles.len() < PAR_MIN {
+        // Every worker scans all triangles: worth it on large inputs only.
+        if shards == 1 || mesh.triangles.len() < 16 * PAR_MIN {
             accumulate(&mut accs, 0);
         } else {
             let per = cells.div_ceil(shards).max(1);

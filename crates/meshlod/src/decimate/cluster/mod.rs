@@ -1302,7 +1302,10 @@ fn finish(
     };
     let positions: Vec<[f32; 3]> = reps.iter().map(|r| r.0).collect();
     let weld = Weld::exact(&positions);
-    let mut set = TripleSet::with_capacity(stage1.cells.len());
+    // Copies over the welded points can only appear when representatives of
+    // distinct cells coincide (the cell triples are already distinct).
+    let merged = weld.point_count() < positions.len();
+    let mut set = TripleSet::with_capacity(if merged { stage1.cells.len() } else { 0 });
     let mut vertex_of_point = vec![u32::MAX; weld.point_count()];
     let mut out_positions = Vec::new();
     let mut triangles = Vec::with_capacity(stage1.cells.len());
@@ -1320,7 +1323,7 @@ fn finish(
             flattened += 1;
             continue;
         }
-        if !set.insert(p) {
+        if merged && !set.insert(p) {
             duplicates += 1;
             continue;
         }

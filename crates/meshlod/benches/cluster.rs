@@ -120,10 +120,7 @@ fn ours_run(c: &Case, ratio: f64) -> Mesh {
 }
 
 /// Best-of-`n` wall times of the three runs, alternating, and the last outputs.
-fn time3(
-    n: usize,
-    runs: [&dyn Fn() -> Mesh; 3],
-) -> ([Duration; 3], [Mesh; 3]) {
+fn time3(n: usize, runs: [&dyn Fn() -> Mesh; 3]) -> ([Duration; 3], [Mesh; 3]) {
     let mut best = [Duration::MAX; 3];
     let mut out: [Mesh; 3] = Default::default();
     for _ in 0..n {
@@ -151,7 +148,11 @@ fn main() {
     println!("|---|---:|---:|---:|---:|---:|---:|---:|---:|");
     for c in &cases {
         let n = c.mesh.triangles.len() as f64;
-        let reps = if c.mesh.triangles.len() > 1_000_000 { 5 } else { 9 };
+        let reps = if c.mesh.triangles.len() > 1_000_000 {
+            5
+        } else {
+            9
+        };
         for ratio in [0.1, 0.01] {
             let sloppy = || meshopt_run(c, ratio);
             let single = || one.install(|| ours_run(c, ratio));

@@ -337,6 +337,9 @@ impl Stage1 {
     }
 }
 
+/// A probe of the search: the cell side ε and the count on its grid.
+type Probe = (f64, usize);
+
 /// The search for the cell side ε giving a probe count (triangles with three
 /// distinct cells): every probe is kept, so a later goal (rescaled after a build)
 /// starts from the bracket the earlier probes give.
@@ -377,7 +380,7 @@ impl Search {
     /// The bracket of `goal`: the finest probe with at most `goal` triangles, and the
     /// coarsest probe finer than it with more (the count is not exactly monotone in
     /// ε, so a probe on the wrong side is ignored).
-    fn bracket(&self, goal: usize) -> (Option<(f64, usize)>, Option<(f64, usize)>) {
+    fn bracket(&self, goal: usize) -> (Option<Probe>, Option<Probe>) {
         let mut large: Option<(f64, usize)> = None;
         for &p in self.probes.iter().filter(|p| p.1 <= goal) {
             if large.is_none_or(|l| p.0 < l.0) {

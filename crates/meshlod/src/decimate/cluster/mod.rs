@@ -55,30 +55,45 @@
 //! (material) of the first input triangle that produced it.
 //!
 //! # Target triangle count
-//! With a target instead of a cell size, ε is searched: each probe is one cheap
-//! parallel pass (cell keys of the vertices, then the number of triangles with three
-//! distinct cells), and ε is updated by secant steps on `log count` against `log ε`
-//! inside a bracket (the count falls roughly as ε⁻²); a few probes land within 2%.
-//! The result is then built; duplicates make it a little smaller than the probe
-//! count, so when it misses the target by more than [`ClusterOptions::tolerance`]
-//! the probe target is scaled and the search resumed (at most three builds).
+//! With a target instead of a cell size, ε is searched. Each probe is one pass: the
+//! cell key of every vertex, then the triangles with three distinct cells, copies
+//! over the same three cells counted once (a set of 64-bit hashes of the sorted
+//! cell triples): the exact count of the first clean-up stage, up to hash collisions
+//! (about `n²/2⁶⁵`). ε starts from the area (estimated on at most 8192 triangles)
+//! and moves by secant steps on `log count` against `log ε` inside the bracket of all
+//! probes so far (the count falls roughly as ε⁻²); probes stop within
+//! `min(0.4·tolerance, 2%)`, or within `0.8·tolerance` after six probes, and after
+//! sixteen at most (on small targets the count jumps between neighbouring grids).
+//! The first stage (cell ids, distinct triangles) then gives the count exactly; when
+//! it misses the target by more than half the tolerance (a streamed sample counts
+//! duplicates less well) the goal is rescaled by probe / stage count and the search
+//! resumes from its earlier probes (at most three first stages, the closest is
+//! built). Coinciding representatives can still remove a few triangles after that.
+//!
+//! # Tables
+//! Cell ids come from a flat array over the grid when the grid is small (in memory:
+//! at most eight grid cells per vertex; streamed: sixteen per expected occupied
+//! cell, so memory stays proportional to the occupied cells), from open addressing
+//! otherwise. Triangle planes are computed a block of 64 at a time (square roots
+//! and divisions in loops of their own), bit for bit as one at a time. The output's
+//! manifold counts sort its edge sides per vertex (linear in the output).
 //!
 //! # Parallelism and determinism
-//! Cell assignment (vertex keys) and counting are parallel maps. Accumulation is
-//! parallel over contiguous ranges of cells: each worker scans the triangles in order
-//! and adds the contributions to its own cells, so each cell's sums are added in
-//! input order whatever the number of threads, and equal, bit for bit, to the
-//! sequential streaming path. The output is deterministic.
+//! Vertex keys and the probes' distinct-cell tests are parallel maps. On inputs of
+//! 2¹⁸ triangles or more, accumulation is parallel over contiguous ranges of cells:
+//! each worker scans the triangles in order and adds the contributions to its own
+//! cells, so each cell's sums are added in input order whatever the number of
+//! threads, and equal, bit for bit, to the sequential streaming path. The output is
+//! deterministic.
 //!
 //! # Streaming
 //! [`cluster_file`] reads the file twice with [`crate::io::stream`]: once for the
-//! bounding box, the count and total area (and, with a target count, a sample of at
-//! most 2²⁰ triangles for the search — all of them when the file has fewer), then
-//! once more to accumulate. Memory is the cell table and sums (about 200 bytes per
-//! occupied cell), the output triangles and, for indexed formats (PLY, OBJ), the
-//! vertex positions (12 bytes per vertex; a binary STL is a true soup). On the same
-//! input it gives the same mesh as [`cluster_mesh`] (positions and groups; streaming
-//! does not carry attributes).
+//! bounding box, the count and a sample of at most 2²⁰ triangles for the search (all
+//! of them when the file has fewer), then once more to accumulate. Memory is the
+//! cell table and sums (about 200 bytes per occupied cell), the output triangles
+//! and, for indexed formats (PLY, OBJ), the vertex positions (12 bytes per vertex;
+//! a binary STL is a true soup). On the same input it gives the same mesh as
+//! [`cluster_mesh`] (positions and groups; streaming does not carry attributes).
 
 #[allow(clippy::needless_range_loop)] // 3-vectors and 3×3 matrices read best indexed
 mod accumulate;
@@ -260,7 +275,8 @@ pub struct ClusterStats {
     pub occupied_cells: usize,
     /// Counting passes of the ε search (0 with a given cell size).
     pub search_passes: usize,
-    /// Full clustering passes (1 with a given cell size; at most 3).
+    /// First stages run (cell ids and distinct triangles; 1 with a given cell size, at
+    /// most 3); one of them is completed. Streamed, each is a pass over the file.
     pub builds: usize,
     /// Input triangles with fewer than three distinct cells (became edges or points).
     pub collapsed_triangles: usize,
@@ -814,7 +830,7 @@ impl Sampler {
 }
 
 /// Minimum items per parallel task in the per-vertex and per-triangle maps.
-const PAR_MIN: usize = 1 << 14;
+const PAR_MIN: usize = 1 << 15;
 
 /// Triangles whose three corner keys differ, copies over the same three keys counted
 /// once. The distinct-key test is parallel for large inputs; the set is filled in
@@ -827,7 +843,7 @@ fn count_distinct(
 ) -> usize {
     set.reset(goal + goal / 4);
     let distinct = |k: &[u64; 3]| (k[0] != k[1]) & (k[1] != k[2]) & (k[0] != k[2]);
-    if n < 4 * PAR_MIN || rayon::current_num_threads() == 1 {
+    if n < 8 * PAR_MIN || rayon::current_num_threads() == 1 {
         // Without a branch per triangle: every triangle is written to the buffer,
         // which only advances past the distinct ones.
         let mut buf = [[0u64; 3]; 256];
@@ -1073,7 +1089,7 @@ impl Pipeline for InMemory<'_> {
         };
         let shards = rayon::current_num_threads().clamp(1, 64);
         // Every worker scans all triangles: worth it on large inputs only.
-        if shards == 1 || mesh.triangles.len() < 16 * PAR_MIN {
+        if shards == 1 || mesh.triangles.len() < 8 * PAR_MIN {
             accumulate(&mut accs, 0);
         } else {
             let per = cells.div_ceil(shards).max(1);

@@ -1061,6 +1061,7 @@ impl Pipeline for InMemory<'_> {
             let len = part.len() as u32;
             let owned = |c: u32| c.wrapping_sub(start) < len;
             let mut which = [0u32; BLOCK];
+            let mut cells_of = [[0u32; 3]; BLOCK];
             let mut planes = [Prepared::ZERO; BLOCK];
             for first in (0..mesh.triangles.len()).step_by(BLOCK) {
                 let last = (first + BLOCK).min(mesh.triangles.len());
@@ -1069,6 +1070,7 @@ impl Pipeline for InMemory<'_> {
                     let tri = &mesh.triangles[t];
                     let c = tri.map(|v| vcell_ref[v as usize]);
                     which[m] = t as u32;
+                    cells_of[m] = c;
                     m += usize::from(owned(c[0]) | owned(c[1]) | owned(c[2]));
                 }
                 prepare_block(
@@ -1077,9 +1079,8 @@ impl Pipeline for InMemory<'_> {
                     grid.origin,
                     &mut planes,
                 );
-                for (plane, &t) in planes.iter().zip(&which[..m]) {
+                for ((plane, &t), &c) in planes.iter().zip(&which[..m]).zip(&cells_of[..m]) {
                     let tri = &mesh.triangles[t as usize];
-                    let c = tri.map(|v| vcell_ref[v as usize]);
                     let w = corner_weights(plane, how, |k| {
                         factors.map_or(1.0, |f| f64::from(f[tri[k] as usize]))
                     });

@@ -1,6 +1,7 @@
-//! The uniform grid of clustering cells, and the two open-addressing tables the
-//! clustering uses in its hot loops: cell key → dense cell id, and a set of
-//! unordered index triples (output triangles) for duplicate removal.
+//! The uniform grid of clustering cells, and the two tables the clustering uses in
+//! its hot loops: cell key → dense cell id (a flat array over the grid when the grid
+//! is small, open addressing otherwise), and a set of unordered index triples
+//! (output triangles) for duplicate removal.
 
 /// Bits per axis of a packed cell key: at most `2²¹ = 2,097,152` cells per axis.
 const AXIS_BITS: u32 = 21;
@@ -57,13 +58,14 @@ impl Grid {
     #[inline]
     #[must_use]
     pub fn coords(&self, p: [f32; 3]) -> [u32; 3] {
-        std::array::from_fn(|k| {
+        // For x ≥ 0 the saturating cast truncates, which is floor (and avoids a libm
+        // call); negatives and NaN become 0; the clamp keeps rounding at the far face
+        // in.
+        let axis = |k: usize| {
             let x = (f64::from(p[k]) - self.origin[k]) * self.inv;
-            // For x ≥ 0 the saturating cast truncates, which is floor (and avoids a
-            // libm call); negatives and NaN become 0; the clamp keeps rounding at the
-            // far face in.
             (x.max(0.0) as u32).min(self.dims[k] - 1)
-        })
+        };
+        [axis(0), axis(1), axis(2)]
     }
 
     /// The packed key of a point's cell: `i << 42 | j << 21 | k`.
@@ -118,17 +120,25 @@ fn mix(x: u64) -> u64 {
 
 const EMPTY: u64 = u64::MAX;
 
-/// Open-addressing map from packed cell keys to dense ids `0, 1, 2, …` in order of
-/// first insertion. Linear probing, load factor at most 1/2.
+/// Map from packed cell keys to dense ids `0, 1, 2, …` in order of first insertion.
+///
+/// Two layouts: when built [`for a grid`](Self::for_grid) of at most `dense_limit`
+/// cells, a flat array indexed by the cell's position in the grid (one `u32` per grid
+/// cell, no hashing); otherwise open addressing with linear probing, load factor at
+/// most 1/2, memory proportional to the cells inserted.
 #[derive(Debug, Clone)]
 pub struct CellTable {
     slots: Vec<(u64, u32)>,
     mask: usize,
     keys: Vec<u64>,
+    /// The flat layout: id of every grid cell (`u32::MAX` when absent), and the grid
+    /// dimensions (y and z) to linearise coordinates.
+    dense: Vec<u32>,
+    dims: [u64; 2],
 }
 
 impl CellTable {
-    /// A table sized for about `expected` cells.
+    /// A hashed table sized for about `expected` cells.
     #[must_use]
     pub fn with_capacity(expected: usize) -> Self {
         let n = (expected.max(8) * 2).next_power_of_two();
@@ -136,6 +146,26 @@ impl CellTable {
             slots: vec![(EMPTY, 0); n],
             mask: n - 1,
             keys: Vec::with_capacity(expected),
+            dense: Vec::new(),
+            dims: [0; 2],
+        }
+    }
+
+    /// A table for the cells of `grid`: flat when the grid has at most `dense_limit`
+    /// cells, hashed (sized for about `expected` cells) otherwise.
+    #[must_use]
+    pub fn for_grid(grid: &Grid, expected: usize, dense_limit: usize) -> Self {
+        let cells = grid.cell_count();
+        if cells <= dense_limit as u64 {
+            Self {
+                slots: Vec::new(),
+                mask: 0,
+                keys: Vec::with_capacity(expected),
+                dense: vec![u32::MAX; cells as usize],
+                dims: [u64::from(grid.dims[1]), u64::from(grid.dims[2])],
+            }
+        } else {
+            Self::with_capacity(expected)
         }
     }
 
@@ -163,9 +193,19 @@ impl CellTable {
         &self.keys
     }
 
-    /// The dense id of `key`, inserting it (with the next id) when new.
+    /// The dense id of `key`, inserting it (with the next id) when new. In the flat
+    /// layout the key must be a cell of the grid the table was made for.
     #[inline]
     pub fn id(&mut self, key: u64) -> u32 {
+        if !self.dense.is_empty() {
+            let [i, j, k] = unpack(key).map(u64::from);
+            let slot = &mut self.dense[((i * self.dims[0] + j) * self.dims[1] + k) as usize];
+            if *slot == u32::MAX {
+                *slot = self.keys.len() as u32;
+                self.keys.push(key);
+            }
+            return *slot;
+        }
         let mut i = mix(key) as usize & self.mask;
         loop {
             let (k, v) = self.slots[i];
@@ -203,7 +243,7 @@ impl CellTable {
     /// Bytes held.
     #[must_use]
     pub fn bytes(&self) -> usize {
-        self.slots.capacity() * 16 + self.keys.capacity() * 8
+        self.slots.capacity() * 16 + self.keys.capacity() * 8 + self.dense.capacity() * 4
     }
 }
 
@@ -233,7 +273,15 @@ impl TripleSet {
     #[inline]
     pub fn insert(&mut self, t: [u32; 3]) -> bool {
         let mut s = t;
-        s.sort_unstable();
+        if s[0] > s[1] {
+            s.swap(0, 1);
+        }
+        if s[1] > s[2] {
+            s.swap(1, 2);
+        }
+        if s[0] > s[1] {
+            s.swap(0, 1);
+        }
         let h = mix((u64::from(s[0]) << 32 | u64::from(s[1])) ^ mix(u64::from(s[2])));
         let mut i = h as usize & self.mask;
         loop {
@@ -269,6 +317,83 @@ impl TripleSet {
     #[must_use]
     pub fn bytes(&self) -> usize {
         self.slots.capacity() * 12
+    }
+}
+
+/// A reusable open-addressing set of unordered triples of cell keys, for counting
+/// the distinct triangles of a probe without numbering the cells. It keeps a 64-bit
+/// hash of each triple, not the triple (8 bytes a slot): two distinct triples count
+/// once only if their hashes collide, which for `n` triples has probability about
+/// `n²/2⁶⁵` (below 10⁻⁸ for a billion-triangle output). Only the ε search uses it.
+#[derive(Debug, Clone, Default)]
+pub(crate) struct KeyTriples {
+    slots: Vec<u64>,
+    mask: usize,
+    len: usize,
+}
+
+impl KeyTriples {
+    /// Empties the set, sized for about `expected` triples (the memory is reused).
+    pub(crate) fn reset(&mut self, expected: usize) {
+        let n = (expected.max(8) * 2).next_power_of_two();
+        self.slots.clear();
+        self.slots.resize(n, 0);
+        self.mask = n - 1;
+        self.len = 0;
+    }
+
+    /// Number of triples held.
+    pub(crate) fn len(&self) -> usize {
+        self.len
+    }
+
+    /// Inserts the triple of keys `t` in any order; `true` when it is new.
+    #[inline]
+    pub(crate) fn insert(&mut self, t: [u64; 3]) -> bool {
+        let mut s = t;
+        if s[0] > s[1] {
+            s.swap(0, 1);
+        }
+        if s[1] > s[2] {
+            s.swap(1, 2);
+        }
+        if s[0] > s[1] {
+            s.swap(0, 1);
+        }
+        let h = mix(s[0] ^ mix(s[1] ^ mix(s[2]))).max(1);
+        self.insert_hash(h)
+    }
+
+    #[inline]
+    fn insert_hash(&mut self, h: u64) -> bool {
+        let mut i = (h >> 7) as usize & self.mask;
+        loop {
+            let slot = self.slots[i];
+            if slot == h {
+                return false;
+            }
+            if slot == 0 {
+                self.slots[i] = h;
+                self.len += 1;
+                if self.len * 2 > self.slots.len() {
+                    self.grow();
+                }
+                return true;
+            }
+            i = (i + 1) & self.mask;
+        }
+    }
+
+    fn grow(&mut self) {
+        let n = self.slots.len() * 2;
+        let old = std::mem::replace(&mut self.slots, vec![0; n]);
+        self.mask = n - 1;
+        self.len = 0;
+        for h in old {
+            if h != 0 {
+                self.insert_hash(h);
+            }
+        }
     }
 }
 
@@ -311,5 +436,39 @@ mod tests {
             assert!(s.insert([i, i + 1, i + 7]));
         }
         assert!(!s.insert([250, 257, 251]));
+        let mut k = KeyTriples::default();
+        k.reset(1);
+        for i in 0..500u64 {
+            assert!(k.insert([i << 40, i + 1, i + 7]));
+        }
+        assert!(!k.insert([251, 250 << 40, 257]));
+        assert!(k.insert([251, 250, 257]));
+        assert_eq!(k.len(), 501);
+        k.reset(4);
+        assert_eq!(k.len(), 0);
+        assert!(k.insert([3, 2, 1]) && !k.insert([1, 3, 2]));
+    }
+
+    /// The flat and the hashed layouts give the same ids for the same keys.
+    #[test]
+    fn flat_and_hashed_tables_agree() {
+        let g = Grid::new([0.0; 3], [3.0, 5.0, 2.0], 0.5);
+        let mut flat = CellTable::for_grid(&g, 4, 1 << 20);
+        let mut hashed = CellTable::for_grid(&g, 4, 0);
+        assert!(!flat.dense.is_empty() && hashed.dense.is_empty());
+        let mut seen = Vec::new();
+        for n in 0..500u32 {
+            let f = n as f32;
+            let p = [(f * 0.37) % 3.0, (f * 0.71) % 5.0, (f * 0.13) % 2.0];
+            let key = g.key(p);
+            let a = flat.id(key);
+            assert_eq!(a, hashed.id(key));
+            assert_eq!(flat.key(a), key);
+            if !seen.contains(&key) {
+                assert_eq!(a as usize, seen.len());
+                seen.push(key);
+            }
+        }
+        assert_eq!(flat.keys(), hashed.keys());
     }
 }

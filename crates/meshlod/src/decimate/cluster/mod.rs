@@ -55,30 +55,45 @@
 //! (material) of the first input triangle that produced it.
 //!
 //! # Target triangle count
-//! With a target instead of a cell size, ε is searched: each probe is one cheap
-//! parallel pass (cell keys of the vertices, then the number of triangles with three
-//! distinct cells), and ε is updated by secant steps on `log count` against `log ε`
-//! inside a bracket (the count falls roughly as ε⁻²); a few probes land within 2%.
-//! The result is then built; duplicates make it a little smaller than the probe
-//! count, so when it misses the target by more than [`ClusterOptions::tolerance`]
-//! the probe target is scaled and the search resumed (at most three builds).
+//! With a target instead of a cell size, ε is searched. Each probe is one pass: the
+//! cell key of every vertex, then the triangles with three distinct cells, copies
+//! over the same three cells counted once (a set of 64-bit hashes of the sorted
+//! cell triples): the exact count of the first clean-up stage, up to hash collisions
+//! (about `n²/2⁶⁵`). ε starts from the area (estimated on at most 8192 triangles)
+//! and moves by secant steps on `log count` against `log ε` inside the bracket of all
+//! probes so far (the count falls roughly as ε⁻²); probes stop within
+//! `min(0.4·tolerance, 2%)`, or within `0.8·tolerance` after six probes, and after
+//! sixteen at most (on small targets the count jumps between neighbouring grids).
+//! The first stage (cell ids, distinct triangles) then gives the count exactly; when
+//! it misses the target by more than half the tolerance (a streamed sample counts
+//! duplicates less well) the goal is rescaled by probe / stage count and the search
+//! resumes from its earlier probes (at most three first stages, the closest is
+//! built). Coinciding representatives can still remove a few triangles after that.
+//!
+//! # Tables
+//! Cell ids come from a flat array over the grid when the grid is small (in memory:
+//! at most eight grid cells per vertex; streamed: sixteen per expected occupied
+//! cell, so memory stays proportional to the occupied cells), from open addressing
+//! otherwise. Triangle planes are computed a block of 64 at a time (square roots
+//! and divisions in loops of their own), bit for bit as one at a time. The output's
+//! manifold counts sort its edge sides per vertex (linear in the output).
 //!
 //! # Parallelism and determinism
-//! Cell assignment (vertex keys) and counting are parallel maps. Accumulation is
-//! parallel over contiguous ranges of cells: each worker scans the triangles in order
-//! and adds the contributions to its own cells, so each cell's sums are added in
-//! input order whatever the number of threads, and equal, bit for bit, to the
-//! sequential streaming path. The output is deterministic.
+//! Vertex keys and the probes' distinct-cell tests are parallel maps. On inputs of
+//! 2¹⁸ triangles or more, accumulation is parallel over contiguous ranges of cells:
+//! each worker scans the triangles in order and adds the contributions to its own
+//! cells, so each cell's sums are added in input order whatever the number of
+//! threads, and equal, bit for bit, to the sequential streaming path. The output is
+//! deterministic.
 //!
 //! # Streaming
 //! [`cluster_file`] reads the file twice with [`crate::io::stream`]: once for the
-//! bounding box, the count and total area (and, with a target count, a sample of at
-//! most 2²⁰ triangles for the search — all of them when the file has fewer), then
-//! once more to accumulate. Memory is the cell table and sums (about 200 bytes per
-//! occupied cell), the output triangles and, for indexed formats (PLY, OBJ), the
-//! vertex positions (12 bytes per vertex; a binary STL is a true soup). On the same
-//! input it gives the same mesh as [`cluster_mesh`] (positions and groups; streaming
-//! does not carry attributes).
+//! bounding box, the count and a sample of at most 2²⁰ triangles for the search (all
+//! of them when the file has fewer), then once more to accumulate. Memory is the
+//! cell table and sums (about 200 bytes per occupied cell), the output triangles
+//! and, for indexed formats (PLY, OBJ), the vertex positions (12 bytes per vertex;
+//! a binary STL is a true soup). On the same input it gives the same mesh as
+//! [`cluster_mesh`] (positions and groups; streaming does not carry attributes).
 
 #[allow(clippy::needless_range_loop)] // 3-vectors and 3×3 matrices read best indexed
 mod accumulate;
@@ -86,10 +101,10 @@ pub mod grid;
 
 use crate::io::stream;
 use crate::io::IoError;
-use crate::mesh::stats::TopologyStats;
 use crate::mesh::{Mesh, Weld};
 use crate::simplify::Distance;
-use accumulate::{contribute, representative, Acc, Prepared};
+use accumulate::{contribute, prepare_block, representative, Acc, Prepared, BLOCK};
+use grid::KeyTriples;
 pub use grid::{CellTable, Grid, TripleSet, MAX_CELLS_PER_AXIS};
 use rayon::prelude::*;
 use serde::Serialize;
@@ -260,7 +275,8 @@ pub struct ClusterStats {
     pub occupied_cells: usize,
     /// Counting passes of the ε search (0 with a given cell size).
     pub search_passes: usize,
-    /// Full clustering passes (1 with a given cell size; at most 3).
+    /// First stages run (cell ids and distinct triangles; 1 with a given cell size, at
+    /// most 3); one of them is completed. Streamed, each is a pass over the file.
     pub builds: usize,
     /// Input triangles with fewer than three distinct cells (became edges or points).
     pub collapsed_triangles: usize,
@@ -337,106 +353,142 @@ impl Stage1 {
     }
 }
 
-/// The grid's side for a cell count: the search variable.
+/// A probe of the search: the cell side ε and the count on its grid.
+type Probe = (f64, usize);
+
+/// The search for the cell side ε giving a probe count (triangles with three
+/// distinct cells): every probe is kept, so a later goal (rescaled after a build)
+/// starts from the bracket the earlier probes give.
 struct Search {
     lo: [f64; 3],
     hi: [f64; 3],
-    /// (ε, count) with count > goal (cells too small).
-    small: Option<(f64, usize)>,
-    /// (ε, count) with count ≤ goal.
-    large: Option<(f64, usize)>,
-    best: Option<(f64, usize)>,
-    passes: usize,
+    /// Every probe, `(ε, count)`, in order.
+    probes: Vec<(f64, usize)>,
 }
 
 impl Search {
+    /// Probes of one [`Self::run`] after which a count within the loose tolerance
+    /// does.
+    const PATIENCE: usize = 6;
+    /// Most probes of one [`Self::run`].
+    const MAX_PROBES: usize = 16;
+
     fn new(lo: [f64; 3], hi: [f64; 3]) -> Self {
         Self {
             lo,
             hi,
-            small: None,
-            large: None,
-            best: None,
-            passes: 0,
+            probes: Vec::new(),
         }
     }
 
-    /// Searches ε with `count(grid)` within `tol` of `goal`, starting at `eps0`.
-    /// Returns the best ε seen.
+    /// The probe closest to `goal` (the first of equals).
+    fn closest(&self, goal: usize) -> Option<(f64, usize)> {
+        let dist = |n: usize| n.abs_diff(goal);
+        let mut best: Option<(f64, usize)> = None;
+        for &p in &self.probes {
+            if best.is_none_or(|b| dist(p.1) < dist(b.1)) {
+                best = Some(p);
+            }
+        }
+        best
+    }
+
+    /// The bracket of `goal`: the finest probe with at most `goal` triangles, and the
+    /// coarsest probe finer than it with more (the count is not exactly monotone in
+    /// ε, so a probe on the wrong side is ignored).
+    fn bracket(&self, goal: usize) -> (Option<Probe>, Option<Probe>) {
+        let mut large: Option<(f64, usize)> = None;
+        for &p in self.probes.iter().filter(|p| p.1 <= goal) {
+            if large.is_none_or(|l| p.0 < l.0) {
+                large = Some(p);
+            }
+        }
+        let mut small: Option<(f64, usize)> = None;
+        for &p in self.probes.iter().filter(|p| p.1 > goal) {
+            if large.is_none_or(|l| p.0 < l.0) && small.is_none_or(|s| p.0 > s.0) {
+                small = Some(p);
+            }
+        }
+        (small, large)
+    }
+
+    /// The next ε to probe for `goal`: a secant step on `log count` against `log ε`
+    /// inside the bracket, or, with one side only, a step assuming count ∝ ε⁻².
+    fn next(&self, goal: usize) -> Option<f64> {
+        let g = goal as f64;
+        match self.bracket(goal) {
+            (Some((es, cs)), Some((el, cl))) => {
+                if el / es < 1.0 + 1e-4 {
+                    return None;
+                }
+                let (ls, ll) = (es.ln(), el.ln());
+                let t = if cl > 0 && cs > cl {
+                    let (ys, yl) = ((cs as f64).ln(), (cl as f64).ln());
+                    ((g.ln() - ys) / (yl - ys)).clamp(0.1, 0.9)
+                } else {
+                    0.5
+                };
+                Some((ls + t * (ll - ls)).exp())
+            }
+            (Some((es, cs)), None) => Some(es * (cs as f64 / g).sqrt().clamp(1.002, 8.0)),
+            (None, Some((el, cl))) => Some(if cl == 0 {
+                el / 4.0
+            } else {
+                el * (cl as f64 / g).sqrt().clamp(0.125, 0.998)
+            }),
+            (None, None) => None,
+        }
+    }
+
+    /// Searches ε with `count(grid)` within `tol` of `goal`, starting at `eps0` (or
+    /// from the earlier probes); after [`Self::PATIENCE`] probes a probe within
+    /// `loose` does, and it stops after [`Self::MAX_PROBES`] (small goals: the count
+    /// jumps between neighbouring grids). Returns the ε of the closest probe and its
+    /// count (`None` for a goal of 0: the coarsest grid, not probed).
     fn run(
         &mut self,
         goal: usize,
         eps0: f64,
-        tol: f64,
+        (tol, loose): (f64, f64),
         mut count: impl FnMut(&Grid) -> usize,
-    ) -> f64 {
+    ) -> (f64, Option<usize>) {
         let extent = (0..3)
             .map(|k| self.hi[k] - self.lo[k])
             .fold(0.0f64, f64::max);
         let coarsest = 2.0 * extent.max(f64::MIN_POSITIVE);
         if goal == 0 {
-            return coarsest;
+            return (coarsest, None);
         }
-        // Forget the bracket of a previous goal but keep what is still valid.
-        self.best = None;
-        let g = goal as f64;
-        let mut eps = eps0.clamp(f64::MIN_POSITIVE, coarsest);
-        for _ in 0..40 {
-            let grid = Grid::new(self.lo, self.hi, eps);
-            eps = grid.cell;
-            let c = count(&grid);
-            self.passes += 1;
-            let dist = |n: usize| (n as f64 - g).abs();
-            if self.best.is_none_or(|(_, b)| dist(c) < dist(b)) {
-                self.best = Some((eps, c));
+        let within = |c: usize| (c as f64 - goal as f64).abs() <= tol * goal as f64;
+        if let Some(b) = self.closest(goal) {
+            if within(b.1) {
+                return (b.0, Some(b.1));
             }
-            if dist(c) <= tol * g {
+        }
+        let mut eps = self.next(goal).unwrap_or(eps0);
+        eps = eps.clamp(f64::MIN_POSITIVE, coarsest);
+        for probe in 0..Self::MAX_PROBES {
+            if probe >= Self::PATIENCE
+                && self
+                    .closest(goal)
+                    .is_some_and(|b| (b.1 as f64 - goal as f64).abs() <= loose * goal as f64)
+            {
                 break;
             }
-            if c > goal {
-                if self.small.is_none_or(|(e, _)| eps > e) {
-                    self.small = Some((eps, c));
+            let grid = Grid::new(self.lo, self.hi, eps);
+            eps = grid.cell;
+            let c = match self.probes.iter().find(|p| p.0 == eps) {
+                Some(p) => p.1,
+                None => {
+                    let c = count(&grid);
+                    self.probes.push((eps, c));
+                    c
                 }
-                if let Some((e, _)) = self.large {
-                    if eps >= e {
-                        self.large = None;
-                    }
-                }
-            } else {
-                if self.large.is_none_or(|(e, _)| eps < e) {
-                    self.large = Some((eps, c));
-                }
-                if let Some((e, _)) = self.small {
-                    if eps <= e {
-                        self.small = None;
-                    }
-                }
-            }
-            let next = match (self.small, self.large) {
-                (Some((es, cs)), Some((el, cl))) => {
-                    if el / es < 1.0 + 1e-9 {
-                        break;
-                    }
-                    let (ls, ll) = (es.ln(), el.ln());
-                    let t = if cl > 0 && cs > cl {
-                        // Secant on log count against log ε.
-                        let (ys, yl) = ((cs as f64).ln(), (cl as f64).ln());
-                        ((g.ln() - ys) / (yl - ys)).clamp(0.1, 0.9)
-                    } else {
-                        0.5
-                    };
-                    (ls + t * (ll - ls)).exp()
-                }
-                (Some((es, cs)), None) => es * (cs as f64 / g).sqrt().clamp(1.05, 8.0),
-                (None, Some((el, cl))) => {
-                    if cl == 0 {
-                        el / 4.0
-                    } else {
-                        el * (cl as f64 / g).sqrt().clamp(0.125, 0.95)
-                    }
-                }
-                (None, None) => break,
             };
+            if within(c) {
+                break;
+            }
+            let Some(next) = self.next(goal) else { break };
             if next == eps || !next.is_finite() {
                 break;
             }
@@ -446,8 +498,24 @@ impl Search {
             }
             eps = next;
         }
-        self.best.map_or(eps, |(e, _)| e)
+        self.closest(goal)
+            .map_or((eps, None), |(e, c)| (e, Some(c)))
     }
+}
+
+/// The two halves of a build, so that the search can check the exact count of the
+/// first clean-up stage before paying for the rest.
+trait Pipeline {
+    /// What [`Pipeline::stage`] hands to [`Pipeline::complete`].
+    type Staged;
+    /// The probe count on `grid`: triangles with three distinct cells, counting
+    /// copies over the same three cells once (`goal` sizes the tables).
+    fn count(&mut self, grid: &Grid, goal: usize) -> usize;
+    /// The first stage on `grid` (cells, distinct non-duplicate cell triples),
+    /// expecting about `expect` triangles; returns it and its triangle count.
+    fn stage(&mut self, grid: &Grid, expect: usize) -> (Self::Staged, usize);
+    /// The rest of the build.
+    fn complete(&mut self, staged: Self::Staged) -> Clustered;
 }
 
 /// Clusters `mesh` to about `target` triangles (when [`ClusterOptions::cell_size`]
@@ -465,35 +533,43 @@ pub fn cluster_mesh(
     options: &ClusterOptions,
 ) -> Result<Clustered, ClusterError> {
     options.check(Some(mesh.positions.len()))?;
-    let diag = mesh.bbox_diagonal();
     let Some((lo32, hi32)) = mesh.bounding_box(false) else {
-        return Ok(empty_result(mesh, options, diag));
+        return Ok(empty_result(mesh, options, 0.0));
     };
     let lo = lo32.map(f64::from);
     let hi = hi32.map(f64::from);
-    let weights = corner_factors(mesh, options);
-    let builder = |grid: &Grid| build_in_memory(mesh, grid, options, weights.as_deref());
-    let mut keys = Vec::new();
-    let count = |grid: &Grid, keys: &mut Vec<u64>| count_in_memory(mesh, grid, keys);
-    let area = || total_area(mesh.triangles.len(), |t| tri_of(mesh, t));
-    let (mut out, search_passes, builds) = drive(
-        lo,
-        hi,
-        diag,
-        target,
+    let diag = diagonal(lo, hi);
+    let n = mesh.triangles.len();
+    let area = area_estimate(n, |t| tri_of(mesh, t));
+    let mut pipeline = InMemory {
+        mesh,
         options,
-        area,
-        |g| count(g, &mut keys),
-        builder,
-    );
+        factors: corner_factors(mesh, options),
+        keys: Vec::new(),
+        keys_cell: f64::NAN,
+        triples: KeyTriples::default(),
+    };
+    let (mut out, search_passes, builds) =
+        drive(lo, hi, diag, target, options, area, &mut pipeline);
     out.stats.search_passes = search_passes;
     out.stats.builds = builds;
     Ok(Clustered {
-        triangles_in: mesh.triangles.len(),
+        triangles_in: n,
         vertices_in: mesh.positions.len(),
         bbox_diagonal: diag,
         ..out
     })
+}
+
+/// The bounding-box diagonal, as [`Mesh::bbox_diagonal`].
+fn diagonal(lo: [f64; 3], hi: [f64; 3]) -> f64 {
+    (0..3)
+        .map(|k| {
+            let d = hi[k] - lo[k];
+            d * d
+        })
+        .sum::<f64>()
+        .sqrt()
 }
 
 /// Clusters the mesh file at `path` by streaming it twice (see the module
@@ -510,16 +586,13 @@ pub fn cluster_file(
     options: &ClusterOptions,
 ) -> Result<Clustered, ClusterError> {
     options.check(None)?;
-    // Pass 1: bounding box, count, area (in chunks, as in memory) and a sample.
+    // Pass 1: bounding box, count and a sample.
     let mut sample = Sampler::new(1 << 20);
-    let mut area = AreaSum::default();
     let mut index = 0usize;
     let summary = stream::for_each_triangle(path, |tri, _group| {
-        area.add(tri);
         sample.push(index, tri);
         index += 1;
     })?;
-    let area = area.total();
     let n = summary.triangles as usize;
     let diag = summary.bbox_diagonal();
     let vertices_in = summary.vertices as usize;
@@ -531,27 +604,20 @@ pub fn cluster_file(
     let lo = lo32.map(f64::from);
     let hi = hi32.map(f64::from);
     let target = target(n);
-    let scale = if sample.tris.is_empty() {
-        1.0
-    } else {
-        n as f64 / sample.tris.len() as f64
-    };
-    let mut keys = Vec::new();
-    let count = |grid: &Grid| {
-        let c = count_soup(&sample.tris, grid, &mut keys);
-        (c as f64 * scale).round() as usize
-    };
-    let mut failure: Option<IoError> = None;
-    let builder = |grid: &Grid| match build_streamed(path, grid, options) {
-        Ok(b) => b,
-        Err(e) => {
-            failure.get_or_insert(e);
-            empty_result(&Mesh::default(), options, diag)
-        }
+    let m = sample.tris.len();
+    // With every triangle in the sample this is the in-memory estimate exactly.
+    let area = area_estimate(m, |t| sample.tris[t]) * (n as f64 / m.max(1) as f64);
+    let mut pipeline = Streamed {
+        path,
+        options,
+        scale: if m == 0 { 1.0 } else { n as f64 / m as f64 },
+        sample: sample.tris,
+        failure: None,
+        triples: KeyTriples::default(),
     };
     let (mut out, search_passes, builds) =
-        drive(lo, hi, diag, target, options, || area, count, builder);
-    if let Some(e) = failure {
+        drive(lo, hi, diag, target, options, area, &mut pipeline);
+    if let Some(e) = pipeline.failure {
         return Err(e.into());
     }
     out.stats.search_passes = search_passes;
@@ -566,72 +632,98 @@ pub fn cluster_file(
 }
 
 /// The search-and-build loop shared by both paths. Returns the result, the number of
-/// counting passes and of builds.
-#[allow(clippy::too_many_arguments)]
-fn drive(
+/// counting passes and of builds (first stages).
+///
+/// The probes search ε for the goal within `min(0.4 tol, 2%)`; then the first stage
+/// gives the exact count before the representatives. When duplicates removed enough
+/// to leave it more than `tol / 2` away from the target, the goal is rescaled by
+/// probe / stage count and the search resumes from its earlier probes; at most three
+/// first stages, of which the closest is completed.
+fn drive<P: Pipeline>(
     lo: [f64; 3],
     hi: [f64; 3],
     diag: f64,
     target: Option<usize>,
     options: &ClusterOptions,
-    area: impl FnOnce() -> f64,
-    mut count: impl FnMut(&Grid) -> usize,
-    mut build: impl FnMut(&Grid) -> Clustered,
+    area: f64,
+    p: &mut P,
 ) -> (Clustered, usize, usize) {
     let target = match (options.cell_size, target) {
         (Some(e), _) => {
             let grid = Grid::new(lo, hi, e.resolve(diag));
-            return (build(&grid), 0, 1);
+            let (s, _) = p.stage(&grid, 0);
+            return (p.complete(s), 0, 1);
         }
         (None, Some(t)) => t,
         (None, None) => {
             // Not reachable through the public API (simplify always has a target);
             // one cell per 1% of the diagonal.
             let grid = Grid::new(lo, hi, 0.01 * diag);
-            return (build(&grid), 0, 1);
+            let (s, _) = p.stage(&grid, 0);
+            return (p.complete(s), 0, 1);
         }
     };
     // About two triangles per occupied cell and ~1.7 cells per ε² of surface.
-    let a = area();
-    let eps0 = if a > 0.0 && target > 0 {
-        (3.5 * a / target as f64).sqrt()
+    let eps0 = if area > 0.0 && target > 0 {
+        (3.5 * area / target as f64).sqrt()
     } else {
         0.01 * diag.max(f64::MIN_POSITIVE)
     };
     let mut search = Search::new(lo, hi);
     let tol = options.tolerance;
-    let mut goal = target;
-    let mut best: Option<Clustered> = None;
-    let mut builds = 0;
-    let mut eps = eps0;
     let dist = |n: usize| (n as f64 - target as f64).abs();
-    for _ in 0..3 {
-        eps = search.run(goal, eps, (0.4 * tol).min(0.02), &mut count);
-        let grid = Grid::new(lo, hi, eps);
-        let out = build(&grid);
+    let mut goal = target;
+    let mut eps = eps0;
+    let mut builds = 0;
+    let mut kept: Option<(usize, P::Staged)> = None;
+    let mut done: Option<Clustered> = None;
+    for round in 0..3 {
+        let tols = ((0.4 * tol).min(0.02), 0.8 * tol);
+        let (e, probe) = search.run(goal, eps, tols, |g| p.count(g, goal));
+        eps = e;
+        let (staged, got) = p.stage(&Grid::new(lo, hi, eps), goal);
         builds += 1;
-        let got = out.mesh.triangles.len();
-        let better = best
-            .as_ref()
-            .is_none_or(|b| dist(got) < dist(b.mesh.triangles.len()));
-        if better {
-            best = Some(out);
+        let last = round == 2;
+        let probe = probe.unwrap_or(goal).max(1);
+        let rescaled = |got: usize| (target as f64 * probe as f64 / got as f64).round() as usize;
+        if !last && got > 0 && dist(got) > 0.5 * tol * target as f64 {
+            let next = rescaled(got);
+            if next != goal {
+                if kept.as_ref().is_none_or(|(k, _)| dist(got) < dist(*k)) {
+                    kept = Some((got, staged));
+                }
+                goal = next;
+                continue;
+            }
         }
-        if dist(got) <= tol * target as f64 || got == 0 {
+        let staged = match kept.take() {
+            Some((k, s)) if dist(k) < dist(got) => s,
+            _ => staged,
+        };
+        let out = p.complete(staged);
+        let got = out.mesh.triangles.len();
+        let ok = dist(got) <= tol * target as f64 || got == 0;
+        if done
+            .as_ref()
+            .is_none_or(|b| dist(got) < dist(b.mesh.triangles.len()))
+        {
+            done = Some(out);
+        }
+        if ok || last {
             break;
         }
-        // Clean-up removed (or kept) more than the probe counted: rescale the goal.
-        let probe = search.best.map_or(goal, |(_, c)| c).max(1);
-        let next = (target as f64 * probe as f64 / got as f64).round() as usize;
+        // The second clean-up (coinciding representatives) removed many: rescale.
+        let next = rescaled(got);
         if next == goal {
             break;
         }
         goal = next;
-        search.small = None;
-        search.large = None;
     }
-    let out = best.unwrap_or_else(|| build(&Grid::new(lo, hi, eps)));
-    (out, search.passes, builds)
+    let out = done.unwrap_or_else(|| {
+        let (s, _) = p.stage(&Grid::new(lo, hi, eps), goal);
+        p.complete(s)
+    });
+    (out, search.probes.len(), builds)
 }
 
 fn empty_result(mesh: &Mesh, options: &ClusterOptions, diag: f64) -> Clustered {
@@ -669,8 +761,8 @@ fn tri_of(mesh: &Mesh, t: usize) -> [[f32; 3]; 3] {
     mesh.triangles[t].map(|i| mesh.positions[i as usize])
 }
 
-/// Chunk size of the deterministic area sum (both paths).
-const AREA_CHUNK: usize = 4096;
+/// Triangles the area estimate of the first guess of ε looks at.
+const AREA_SAMPLE: usize = 8192;
 
 #[inline]
 fn area_of(t: &[[f32; 3]; 3]) -> f64 {
@@ -685,49 +777,21 @@ fn area_of(t: &[[f32; 3]; 3]) -> f64 {
     0.5 * (c[0] * c[0] + c[1] * c[1] + c[2] * c[2]).sqrt()
 }
 
-/// Total area, summed per chunk of [`AREA_CHUNK`] triangles in parallel, then over
-/// chunks in order: deterministic and equal to [`AreaSum`].
-fn total_area(n: usize, tri: impl Fn(usize) -> [[f32; 3]; 3] + Sync) -> f64 {
-    let chunks: Vec<f64> = (0..n.div_ceil(AREA_CHUNK))
-        .into_par_iter()
-        .map(|c| {
-            let mut s = 0.0;
-            for t in c * AREA_CHUNK..((c + 1) * AREA_CHUNK).min(n) {
-                s += area_of(&tri(t));
-            }
-            s
-        })
-        .collect();
-    chunks.iter().sum()
-}
-
-/// The streaming twin of [`total_area`].
-#[derive(Default)]
-struct AreaSum {
-    chunks: f64,
-    current: f64,
-    in_chunk: usize,
-}
-
-impl AreaSum {
-    fn add(&mut self, t: &[[f32; 3]; 3]) {
-        self.current += area_of(t);
-        self.in_chunk += 1;
-        if self.in_chunk == AREA_CHUNK {
-            self.flush();
-        }
+/// The total area of `n` triangles estimated from every `k`-th one (at most
+/// [`AREA_SAMPLE`]), summed in order: only the search's first guess uses it, and
+/// both paths compute it the same way.
+fn area_estimate(n: usize, tri: impl Fn(usize) -> [[f32; 3]; 3]) -> f64 {
+    if n == 0 {
+        return 0.0;
     }
-    fn flush(&mut self) {
-        self.chunks += self.current;
-        self.current = 0.0;
-        self.in_chunk = 0;
+    let k = n.div_ceil(AREA_SAMPLE);
+    let mut sum = 0.0;
+    let mut m = 0usize;
+    for t in (0..n).step_by(k) {
+        sum += area_of(&tri(t));
+        m += 1;
     }
-    fn total(mut self) -> f64 {
-        if self.in_chunk > 0 {
-            self.flush();
-        }
-        self.chunks
-    }
+    sum * (n as f64 / m as f64)
 }
 
 /// A deterministic stride sample of at most `cap` triangles: every `stride`-th; when
@@ -765,33 +829,60 @@ impl Sampler {
     }
 }
 
-/// Triangles of `mesh` with three distinct cells on `grid` (parallel).
-fn count_in_memory(mesh: &Mesh, grid: &Grid, keys: &mut Vec<u64>) -> usize {
-    mesh.positions
-        .par_iter()
-        .with_min_len(4096)
-        .map(|&p| grid.key(p))
-        .collect_into_vec(keys);
-    let keys = &*keys;
-    mesh.triangles
-        .par_iter()
-        .with_min_len(4096)
-        .filter(|t| {
-            let [a, b, c] = t.map(|i| keys[i as usize]);
-            a != b && b != c && a != c
-        })
-        .count()
+/// Minimum items per parallel task in the per-vertex and per-triangle maps.
+const PAR_MIN: usize = 1 << 15;
+
+/// Triangles whose three corner keys differ, copies over the same three keys counted
+/// once. The distinct-key test is parallel for large inputs; the set is filled in
+/// order.
+fn count_distinct(
+    n: usize,
+    keys_of: impl Fn(usize) -> [u64; 3] + Sync,
+    set: &mut KeyTriples,
+    goal: usize,
+) -> usize {
+    set.reset(goal + goal / 4);
+    let distinct = |k: &[u64; 3]| (k[0] != k[1]) & (k[1] != k[2]) & (k[0] != k[2]);
+    if n < 8 * PAR_MIN || rayon::current_num_threads() == 1 {
+        // Without a branch per triangle: every triangle is written to the buffer,
+        // which only advances past the distinct ones.
+        let mut buf = [[0u64; 3]; 256];
+        let mut m = 0;
+        for t in 0..n {
+            let k = keys_of(t);
+            buf[m] = k;
+            m += usize::from(distinct(&k));
+            if m == buf.len() {
+                for k in &buf {
+                    set.insert(*k);
+                }
+                m = 0;
+            }
+        }
+        for k in &buf[..m] {
+            set.insert(*k);
+        }
+    } else {
+        let chunks: Vec<Vec<[u64; 3]>> = (0..n.div_ceil(PAR_MIN))
+            .into_par_iter()
+            .map(|c| {
+                (c * PAR_MIN..((c + 1) * PAR_MIN).min(n))
+                    .map(&keys_of)
+                    .filter(distinct)
+                    .collect()
+            })
+            .collect();
+        for k in chunks.into_iter().flatten() {
+            set.insert(k);
+        }
+    }
+    set.len()
 }
 
-/// Triangles of a soup with three distinct cells on `grid` (parallel).
-fn count_soup(tris: &[[[f32; 3]; 3]], grid: &Grid, _keys: &mut Vec<u64>) -> usize {
-    tris.par_iter()
-        .with_min_len(4096)
-        .filter(|t| {
-            let [a, b, c] = t.map(|p| grid.key(p));
-            a != b && b != c && a != c
-        })
-        .count()
+/// Expected occupied cells for about `triangles` output triangles (about two
+/// triangles per cell), for sizing tables.
+fn expected_cells(triangles: usize) -> usize {
+    triangles / 2 + 64
 }
 
 /// Per-vertex factors of the weighted representative (`None`: all 1).
@@ -856,136 +947,300 @@ fn feature_factors(mesh: &Mesh) -> Vec<f32> {
         .collect()
 }
 
-/// The in-memory build: cells of the vertices, parallel accumulation over ranges of
-/// cells, then the shared finish.
-fn build_in_memory(
-    mesh: &Mesh,
-    grid: &Grid,
-    options: &ClusterOptions,
-    factors: Option<&[f32]>,
-) -> Clustered {
-    let how = options.representative;
-    // Cells of referenced vertices, ids in order of first use by a triangle corner
-    // (as the streaming path numbers them; only the numbering differs otherwise).
-    let keys: Vec<u64> = mesh
-        .positions
-        .par_iter()
-        .with_min_len(4096)
-        .map(|&p| grid.key(p))
-        .collect();
-    let mut table = CellTable::with_capacity((mesh.triangles.len() / 8).max(16));
-    let mut vcell = vec![u32::MAX; mesh.positions.len()];
-    let (mut stage1, mut set) = Stage1::new(mesh.triangles.len() / 4);
-    for (t, tri) in mesh.triangles.iter().enumerate() {
-        let mut c = [0u32; 3];
-        for k in 0..3 {
-            let v = tri[k] as usize;
-            if vcell[v] == u32::MAX {
-                vcell[v] = table.id(keys[v]);
-            }
-            c[k] = vcell[v];
+/// The in-memory pipeline: probes and first stages on per-vertex cell keys.
+struct InMemory<'a> {
+    mesh: &'a Mesh,
+    options: &'a ClusterOptions,
+    factors: Option<Vec<f32>>,
+    /// The cell key of every vertex on the grid of side `keys_cell` (NaN: none yet).
+    keys: Vec<u64>,
+    keys_cell: f64,
+    triples: KeyTriples,
+}
+
+/// An in-memory first stage.
+struct MemStaged {
+    grid: Grid,
+    table: CellTable,
+    /// The cell of every vertex.
+    vcell: Vec<u32>,
+    stage1: Stage1,
+}
+
+impl InMemory<'_> {
+    /// Fills [`Self::keys`] for `grid` (the origin never changes; only the side).
+    fn keys_for(&mut self, grid: &Grid) {
+        if self.keys_cell.to_bits() == grid.cell.to_bits() && !self.keys.is_empty() {
+            return;
         }
-        stage1.push(&mut set, c, mesh.group(t));
-    }
-    drop(set);
-    let cells = table.len();
-    let mut accs = vec![Acc::default(); cells];
-    let shards = rayon::current_num_threads().clamp(1, 64);
-    let per = cells.div_ceil(shards).max(1);
-    let quadric = how == Representative::Quadric;
-    let vcell = &vcell;
-    let table_ref = &table;
-    accs.par_chunks_mut(per).enumerate().for_each(|(s, part)| {
-        let start = (s * per) as u32;
-        let end = start + part.len() as u32;
-        let owned = |c: u32| c >= start && c < end;
-        for tri in &mesh.triangles {
-            let c = tri.map(|v| vcell[v as usize]);
-            if !(owned(c[0]) || owned(c[1]) || owned(c[2])) {
-                continue;
-            }
-            let corners = tri.map(|v| mesh.positions[v as usize]);
-            let t = Prepared::new(&corners, grid.origin);
-            let w = corner_weights(&t, how, |k| {
-                factors.map_or(1.0, |f| f64::from(f[tri[k] as usize]))
-            });
-            add_to_cells(&t, c, w, quadric, grid, table_ref, part, start);
-        }
-    });
-    let mut out = finish(grid, &table, &accs, stage1, how, mesh.group_names.clone());
-    // Attributes: per output vertex the closest input vertex of its cells.
-    let n_out = out.mesh.positions.len();
-    let mut best = vec![(f64::INFINITY, u32::MAX); n_out];
-    for (v, &c) in vcell.iter().enumerate() {
-        if c == u32::MAX {
-            continue;
-        }
-        let o = out.vertex_of_cell[c as usize];
-        if o == u32::MAX {
-            continue;
-        }
-        let r = out.mesh.positions[o as usize];
-        let p = mesh.positions[v];
-        let d: f64 = (0..3)
-            .map(|k| {
-                let x = f64::from(p[k]) - f64::from(r[k]);
-                x * x
-            })
-            .sum();
-        let b = &mut best[o as usize];
-        if d < b.0 {
-            *b = (d, v as u32);
-        }
-    }
-    let source: Vec<u32> = best.iter().map(|b| b.1).collect();
-    out.mesh.attributes = mesh.attributes.gather(&source);
-    out.stats.working_bytes += vcell.len() * 4 + keys.len() * 8;
-    Clustered {
-        mesh: out.mesh,
-        vertex_source: source,
-        stats: out.stats,
-        triangles_in: mesh.triangles.len(),
-        vertices_in: mesh.positions.len(),
-        bbox_diagonal: 0.0,
+        self.mesh
+            .positions
+            .par_iter()
+            .with_min_len(PAR_MIN)
+            .map(|&p| grid.key(p))
+            .collect_into_vec(&mut self.keys);
+        self.keys_cell = grid.cell;
     }
 }
 
-/// The streaming build: one pass over the file.
+impl Pipeline for InMemory<'_> {
+    type Staged = MemStaged;
+
+    fn count(&mut self, grid: &Grid, goal: usize) -> usize {
+        self.keys_for(grid);
+        let (tris, keys) = (&self.mesh.triangles, &self.keys);
+        count_distinct(
+            tris.len(),
+            |t| tris[t].map(|v| keys[v as usize]),
+            &mut self.triples,
+            goal,
+        )
+    }
+
+    fn stage(&mut self, grid: &Grid, expect: usize) -> (MemStaged, usize) {
+        self.keys_for(grid);
+        let mesh = self.mesh;
+        let expect = if expect == 0 {
+            mesh.triangles.len() / 8
+        } else {
+            expect + expect / 8
+        };
+        // Cells of the vertices, ids in vertex order (the streaming path numbers them
+        // in corner order; the numbering changes nothing else). The flat table costs 4
+        // bytes per grid cell: allowed up to eight per vertex.
+        let dense_limit = (8 * mesh.positions.len()).max(1 << 12);
+        let mut table = CellTable::for_grid(grid, expected_cells(expect), dense_limit);
+        let vcell: Vec<u32> = self.keys.iter().map(|&k| table.id(k)).collect();
+        let (mut stage1, mut set) = Stage1::new(expect);
+        for (t, tri) in mesh.triangles.iter().enumerate() {
+            let c = [
+                vcell[tri[0] as usize],
+                vcell[tri[1] as usize],
+                vcell[tri[2] as usize],
+            ];
+            stage1.push(&mut set, c, mesh.group(t));
+        }
+        let got = stage1.cells.len();
+        (
+            MemStaged {
+                grid: *grid,
+                table,
+                vcell,
+                stage1,
+            },
+            got,
+        )
+    }
+
+    fn complete(&mut self, staged: MemStaged) -> Clustered {
+        let MemStaged {
+            grid,
+            table,
+            vcell,
+            stage1,
+        } = staged;
+        let mesh = self.mesh;
+        let how = self.options.representative;
+        let factors = self.factors.as_deref();
+        let cells = table.len();
+        let mut accs = vec![Acc::default(); cells];
+        let quadric = how == Representative::Quadric;
+        let grid = &grid;
+        let corners: Vec<[f64; 3]> = table
+            .keys()
+            .iter()
+            .map(|&k| grid.corner(grid::unpack(k)))
+            .collect();
+        let corners = &corners[..];
+        let vcell_ref = &vcell;
+        // Workers own contiguous ranges of cells; each scans the triangles in order, so
+        // every cell adds its contributions in input order (as the streaming path).
+        // Triangles go in blocks: the planes of a block are computed in one tight loop
+        // (square roots and divisions overlap), then added to the cells in order.
+        let accumulate = |part: &mut [Acc], start: u32| {
+            let len = part.len() as u32;
+            let owned = |c: u32| c.wrapping_sub(start) < len;
+            let mut which = [0u32; BLOCK];
+            let mut cells_of = [[0u32; 3]; BLOCK];
+            let mut planes = [Prepared::ZERO; BLOCK];
+            for first in (0..mesh.triangles.len()).step_by(BLOCK) {
+                let last = (first + BLOCK).min(mesh.triangles.len());
+                let mut m = 0;
+                for t in first..last {
+                    let tri = &mesh.triangles[t];
+                    let c = tri.map(|v| vcell_ref[v as usize]);
+                    which[m] = t as u32;
+                    cells_of[m] = c;
+                    m += usize::from(owned(c[0]) | owned(c[1]) | owned(c[2]));
+                }
+                prepare_block(
+                    m,
+                    |i| mesh.triangles[which[i] as usize].map(|v| mesh.positions[v as usize]),
+                    grid.origin,
+                    &mut planes,
+                );
+                for ((plane, &t), &c) in planes.iter().zip(&which[..m]).zip(&cells_of[..m]) {
+                    let tri = &mesh.triangles[t as usize];
+                    let w = corner_weights(plane, how, |k| {
+                        factors.map_or(1.0, |f| f64::from(f[tri[k] as usize]))
+                    });
+                    add_to_cells(plane, c, w, quadric, corners, part, start);
+                }
+            }
+        };
+        let shards = rayon::current_num_threads().clamp(1, 64);
+        // Every worker scans all triangles: worth it on large inputs only.
+        if shards == 1 || mesh.triangles.len() < 8 * PAR_MIN {
+            accumulate(&mut accs, 0);
+        } else {
+            let per = cells.div_ceil(shards).max(1);
+            accs.par_chunks_mut(per)
+                .enumerate()
+                .for_each(|(s, part)| accumulate(part, (s * per) as u32));
+        }
+        let mut out = finish(grid, &table, &accs, stage1, how, mesh.group_names.clone());
+        // Attributes: per output vertex the closest input vertex of its cells (that a
+        // triangle uses).
+        let n_out = out.mesh.positions.len();
+        let mut best = vec![(f64::INFINITY, u32::MAX); n_out];
+        let mut used = vec![false; mesh.positions.len()];
+        for tri in &mesh.triangles {
+            for &v in tri {
+                used[v as usize] = true;
+            }
+        }
+        for (v, &c) in vcell.iter().enumerate() {
+            if !used[v] {
+                continue;
+            }
+            let o = out.vertex_of_cell[c as usize];
+            if o == u32::MAX {
+                continue;
+            }
+            let r = out.mesh.positions[o as usize];
+            let p = mesh.positions[v];
+            let d: f64 = (0..3)
+                .map(|k| {
+                    let x = f64::from(p[k]) - f64::from(r[k]);
+                    x * x
+                })
+                .sum();
+            let b = &mut best[o as usize];
+            if d < b.0 {
+                *b = (d, v as u32);
+            }
+        }
+        let source: Vec<u32> = best.iter().map(|b| b.1).collect();
+        out.mesh.attributes = mesh.attributes.gather(&source);
+        out.stats.working_bytes += vcell.len() * 4 + self.keys.len() * 8;
+        Clustered {
+            mesh: out.mesh,
+            vertex_source: source,
+            stats: out.stats,
+            triangles_in: mesh.triangles.len(),
+            vertices_in: mesh.positions.len(),
+            bbox_diagonal: 0.0,
+        }
+    }
+}
+
+/// The streaming pipeline: probes on the sample, and every first stage is a whole
+/// build over the file (the second pass).
+struct Streamed<'a> {
+    path: &'a Path,
+    options: &'a ClusterOptions,
+    sample: Vec<[[f32; 3]; 3]>,
+    /// Triangles in the file per sampled triangle.
+    scale: f64,
+    /// The first read error (the builds after it return empty results).
+    failure: Option<IoError>,
+    triples: KeyTriples,
+}
+
+impl Pipeline for Streamed<'_> {
+    type Staged = Clustered;
+
+    fn count(&mut self, grid: &Grid, goal: usize) -> usize {
+        let tris = &self.sample;
+        let sample_goal = (goal as f64 / self.scale) as usize;
+        let c = count_distinct(
+            tris.len(),
+            |t| tris[t].map(|p| grid.key(p)),
+            &mut self.triples,
+            sample_goal,
+        );
+        (c as f64 * self.scale).round() as usize
+    }
+
+    fn stage(&mut self, grid: &Grid, expect: usize) -> (Clustered, usize) {
+        if self.failure.is_none() {
+            match build_streamed(self.path, grid, self.options, expect) {
+                Ok(b) => return b,
+                Err(e) => self.failure = Some(e),
+            }
+        }
+        (empty_result(&Mesh::default(), self.options, 0.0), 0)
+    }
+
+    fn complete(&mut self, staged: Clustered) -> Clustered {
+        staged
+    }
+}
+
+/// The streaming build: one pass over the file. Returns the result and the count of
+/// its first stage.
 fn build_streamed(
     path: &Path,
     grid: &Grid,
     options: &ClusterOptions,
-) -> Result<Clustered, IoError> {
+    expect: usize,
+) -> Result<(Clustered, usize), IoError> {
     let how = options.representative;
     let quadric = how == Representative::Quadric;
-    let mut table = CellTable::with_capacity(1 << 12);
-    let mut accs: Vec<Acc> = Vec::new();
-    let (mut stage1, mut set) = Stage1::new(1 << 12);
+    let expect = if expect == 0 {
+        1 << 12
+    } else {
+        expect + expect / 8
+    };
+    // The flat table is allowed up to 16 grid cells (64 bytes) per expected occupied
+    // cell, well under the 150 bytes of a cell's sums: memory stays proportional to
+    // the occupied cells.
+    let cells = expected_cells(expect);
+    let mut table = CellTable::for_grid(grid, cells, (16 * cells).max(1 << 16));
+    let mut accs: Vec<Acc> = Vec::with_capacity(cells);
+    let mut corners: Vec<[f64; 3]> = Vec::with_capacity(cells);
+    let (mut stage1, mut set) = Stage1::new(expect);
     let s = stream::for_each_triangle(path, |tri, group| {
         let c = tri.map(|p| {
-            let id = table.id(grid.key(p));
+            let key = grid.key(p);
+            let id = table.id(key);
             if id as usize == accs.len() {
                 accs.push(Acc::default());
+                corners.push(grid.corner(grid::unpack(key)));
             }
             id
         });
         stage1.push(&mut set, c, group);
         let t = Prepared::new(tri, grid.origin);
         let w = corner_weights(&t, how, |_| 1.0);
-        add_to_cells(&t, c, w, quadric, grid, &table, &mut accs, 0);
+        add_to_cells(&t, c, w, quadric, &corners, &mut accs, 0);
     })?;
     let set_bytes = set.bytes();
     drop(set);
+    let got = stage1.cells.len();
     let mut out = finish(grid, &table, &accs, stage1, how, s.group_names);
     out.stats.working_bytes += set_bytes;
-    Ok(Clustered {
-        mesh: out.mesh,
-        vertex_source: Vec::new(),
-        stats: out.stats,
-        triangles_in: s.triangles as usize,
-        vertices_in: s.vertices as usize,
-        bbox_diagonal: 0.0,
-    })
+    Ok((
+        Clustered {
+            mesh: out.mesh,
+            vertex_source: Vec::new(),
+            stats: out.stats,
+            triangles_in: s.triangles as usize,
+            vertices_in: s.vertices as usize,
+            bbox_diagonal: 0.0,
+        },
+        got,
+    ))
 }
 
 /// Corner weights of the representative's mean.
@@ -993,25 +1248,31 @@ fn build_streamed(
 fn corner_weights(t: &Prepared, how: Representative, factor: impl Fn(usize) -> f64) -> [f64; 3] {
     match how {
         Representative::Average => [1.0; 3],
-        Representative::Quadric => [t.area / 3.0; 3],
-        Representative::Weighted => std::array::from_fn(|k| t.area / 3.0 * factor(k)),
+        // The mean is Σ wᵢ pᵢ / Σ wᵢ: the common factor 1/3 of `Aₜ/3` cancels.
+        Representative::Quadric => [t.area; 3],
+        Representative::Weighted => std::array::from_fn(|k| t.area * factor(k)),
     }
 }
 
 /// Adds triangle `t` with corner cells `c` to each distinct cell among
 /// `start .. start + accs.len()` (the in-memory workers own a range of cells).
-#[inline]
+#[inline(always)]
 #[allow(clippy::too_many_arguments)]
 fn add_to_cells(
     t: &Prepared,
     c: [u32; 3],
     w: [f64; 3],
     quadric: bool,
-    grid: &Grid,
-    table: &CellTable,
+    corners: &[[f64; 3]],
     accs: &mut [Acc],
     start: u32,
 ) {
+    if c[0] == c[1] && c[1] == c[2] {
+        if let Some(a) = accs.get_mut(c[0].wrapping_sub(start) as usize) {
+            contribute(a, corners[c[0] as usize], t, [true; 3], w, quadric);
+        }
+        return;
+    }
     for k in 0..3 {
         if (k >= 1 && c[k] == c[0]) || (k == 2 && c[2] == c[1]) {
             continue;
@@ -1021,8 +1282,7 @@ fn add_to_cells(
             .and_then(|i| accs.get_mut(i as usize))
         {
             let mask = [c[0] == c[k], c[1] == c[k], c[2] == c[k]];
-            let corner = grid.corner(grid::unpack(table.key(c[k])));
-            contribute(a, corner, t, mask, w, quadric);
+            contribute(a, corners[c[k] as usize], t, mask, w, quadric);
         }
     }
 }
@@ -1062,7 +1322,10 @@ fn finish(
     };
     let positions: Vec<[f32; 3]> = reps.iter().map(|r| r.0).collect();
     let weld = Weld::exact(&positions);
-    let mut set = TripleSet::with_capacity(stage1.cells.len());
+    // Copies over the welded points can only appear when representatives of
+    // distinct cells coincide (the cell triples are already distinct).
+    let merged = weld.point_count() < positions.len();
+    let mut set = TripleSet::with_capacity(if merged { stage1.cells.len() } else { 0 });
     let mut vertex_of_point = vec![u32::MAX; weld.point_count()];
     let mut out_positions = Vec::new();
     let mut triangles = Vec::with_capacity(stage1.cells.len());
@@ -1080,7 +1343,7 @@ fn finish(
             flattened += 1;
             continue;
         }
-        if !set.insert(p) {
+        if merged && !set.insert(p) {
             duplicates += 1;
             continue;
         }
@@ -1105,9 +1368,7 @@ fn finish(
         .iter()
         .map(|&p| vertex_of_point[p as usize])
         .collect();
-    let topo = TopologyStats::of(&triangles, out_positions.len(), |v| {
-        out_positions[v as usize]
-    });
+    let topo = edge_counts(&triangles, out_positions.len());
     let has_groups = !group_names.is_empty() || groups.iter().any(|&g| g != 0);
     let mesh = Mesh {
         positions: out_positions,
@@ -1121,7 +1382,7 @@ fn finish(
             representative: how,
             cell_size: grid.cell,
             grid: grid.dims,
-            occupied_cells: accs.len(),
+            occupied_cells: accs.iter().filter(|a| a.n > 0.0).count(),
             search_passes: 0,
             builds: 1,
             collapsed_triangles: stage1.collapsed,
@@ -1137,6 +1398,123 @@ fn finish(
         mesh,
         vertex_of_cell,
     }
+}
+
+/// The manifold counts of the output.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+struct EdgeCounts {
+    non_manifold_edges: usize,
+    non_manifold_vertices: usize,
+    boundary_edges: usize,
+}
+
+/// Boundary and non-manifold edges and non-manifold vertices of `triangles` over
+/// `vertices` points, as [`crate::mesh::stats::TopologyStats`] counts them, for
+/// triangles with three distinct points and no two over the same points (the
+/// output's invariants). Linear in the output size (plus sorts of each vertex's
+/// few edges): the `3t` edge sides are bucketed by their smaller end and sorted by
+/// the other, the sides of one edge give its valence, and the triangle corners at
+/// both ends of an edge are joined (union–find over corners), so a vertex's fans are
+/// its corners that remain roots.
+fn edge_counts(triangles: &[[u32; 3]], vertices: usize) -> EdgeCounts {
+    // Counting sort of the sides by smaller end, then each bucket by (larger end,
+    // triangle).
+    let mut start = vec![0u32; vertices + 1];
+    for tri in triangles {
+        for k in 0..3 {
+            start[tri[k].min(tri[(k + 1) % 3]) as usize + 1] += 1;
+        }
+    }
+    for v in 0..vertices {
+        start[v + 1] += start[v];
+    }
+    let mut fill = start.clone();
+    let mut bucketed = vec![(0u32, 0u32); 3 * triangles.len()];
+    for (t, tri) in triangles.iter().enumerate() {
+        for k in 0..3 {
+            let (a, b) = (tri[k], tri[(k + 1) % 3]);
+            let slot = &mut fill[a.min(b) as usize];
+            bucketed[*slot as usize] = (a.max(b), t as u32);
+            *slot += 1;
+        }
+    }
+    let mut sides: Vec<(u64, u32)> = Vec::with_capacity(bucketed.len());
+    for v in 0..vertices {
+        let bucket = &mut bucketed[start[v] as usize..start[v + 1] as usize];
+        bucket.sort_unstable();
+        sides.extend(
+            bucket
+                .iter()
+                .map(|&(b, t)| ((v as u64) << 32 | u64::from(b), t)),
+        );
+    }
+    let corner = |t: u32, v: u32| -> u32 {
+        let tri = &triangles[t as usize];
+        let k = if tri[0] == v {
+            0
+        } else if tri[1] == v {
+            1
+        } else {
+            2
+        };
+        3 * t + k
+    };
+    let mut parent: Vec<u32> = (0..3 * triangles.len() as u32).collect();
+    fn find(parent: &mut [u32], mut x: u32) -> u32 {
+        while parent[x as usize] != x {
+            let up = parent[parent[x as usize] as usize];
+            parent[x as usize] = up;
+            x = up;
+        }
+        x
+    }
+    let union = |parent: &mut [u32], a: u32, b: u32| {
+        let (ra, rb) = (find(parent, a), find(parent, b));
+        if ra != rb {
+            parent[ra.max(rb) as usize] = ra.min(rb);
+        }
+    };
+    let mut bad = vec![false; vertices];
+    let mut counts = EdgeCounts {
+        non_manifold_edges: 0,
+        non_manifold_vertices: 0,
+        boundary_edges: 0,
+    };
+    let mut i = 0;
+    while i < sides.len() {
+        let key = sides[i].0;
+        let mut j = i + 1;
+        while j < sides.len() && sides[j].0 == key {
+            j += 1;
+        }
+        let (a, b) = ((key >> 32) as u32, key as u32);
+        match j - i {
+            1 => counts.boundary_edges += 1,
+            2 => {}
+            _ => {
+                counts.non_manifold_edges += 1;
+                bad[a as usize] = true;
+                bad[b as usize] = true;
+            }
+        }
+        let t0 = sides[i].1;
+        for s in &sides[i + 1..j] {
+            union(&mut parent, corner(t0, a), corner(s.1, a));
+            union(&mut parent, corner(t0, b), corner(s.1, b));
+        }
+        i = j;
+    }
+    let mut fans = vec![0u32; vertices];
+    for (t, tri) in triangles.iter().enumerate() {
+        for (k, &v) in tri.iter().enumerate() {
+            let c = (3 * t + k) as u32;
+            if find(&mut parent, c) == c {
+                fans[v as usize] += 1;
+            }
+        }
+    }
+    counts.non_manifold_vertices = (0..vertices).filter(|&v| bad[v] || fans[v] > 1).count();
+    counts
 }
 
 #[cfg(test)]

@@ -294,6 +294,84 @@ fn streaming_refuses_in_memory_weights() {
     assert!(e.to_string().contains("none.stl"));
 }
 
+/// The manifold counts `ClusterStats` reports.
+fn counts_of(c: &Clustered) -> (usize, usize, usize) {
+    let s = &c.stats;
+    (
+        s.non_manifold_edges,
+        s.non_manifold_vertices,
+        s.boundary_edges,
+    )
+}
+
+/// The same counts by `TopologyStats` (output vertices are distinct positions).
+fn topology_counts(m: &Mesh) -> (usize, usize, usize) {
+    let s = TopologyStats::of(&m.triangles, m.positions.len(), |v| m.positions[v as usize]);
+    (
+        s.non_manifold_edges,
+        s.non_manifold_vertices,
+        s.boundary_edges,
+    )
+}
+
+/// The sort-based manifold counts of the output agree with `TopologyStats`, on
+/// hand-made cases and on clustered meshes that do collapse to non-manifold sheets.
+#[test]
+fn manifold_counts_agree_with_topology_stats() {
+    // A bow-tie (two fans at 0), a fin (three triangles on 0–1) and a closed
+    // tetrahedron.
+    let cases: [(&[[u32; 3]], usize, EdgeCounts); 3] = [
+        (
+            &[[0, 1, 2], [0, 3, 4]],
+            5,
+            EdgeCounts {
+                non_manifold_edges: 0,
+                non_manifold_vertices: 1,
+                boundary_edges: 6,
+            },
+        ),
+        (
+            &[[0, 1, 2], [1, 0, 3], [0, 1, 4]],
+            5,
+            EdgeCounts {
+                non_manifold_edges: 1,
+                non_manifold_vertices: 2,
+                boundary_edges: 6,
+            },
+        ),
+        (
+            &[[0, 1, 2], [0, 3, 1], [1, 3, 2], [0, 2, 3]],
+            4,
+            EdgeCounts {
+                non_manifold_edges: 0,
+                non_manifold_vertices: 0,
+                boundary_edges: 0,
+            },
+        ),
+    ];
+    for (tris, n, want) in cases {
+        assert_eq!(edge_counts(tris, n), want, "{tris:?}");
+    }
+    let thin = generate::torus(120, 24, 1.0, 0.04);
+    let mut non_manifold_seen = 0;
+    for m in [
+        generate::torus(60, 24, 1.0, 0.3),
+        generate::icosphere(4),
+        thin,
+    ] {
+        for cell in [0.01, 0.03, 0.06, 0.12, 0.25] {
+            let o = ClusterOptions::default().with_cell_size(Distance::Relative(cell));
+            let c = cluster_mesh(&m, None, &o).unwrap();
+            assert_eq!(counts_of(&c), topology_counts(&c.mesh), "cell {cell}");
+            non_manifold_seen += c.stats.non_manifold_vertices;
+        }
+    }
+    assert!(
+        non_manifold_seen > 0,
+        "no case exercised the non-manifold counts"
+    );
+}
+
 fn arb_mesh() -> impl Strategy<Value = Mesh> {
     (4usize..40).prop_flat_map(|nv| {
         (
@@ -315,6 +393,7 @@ proptest! {
         let c = cluster_mesh(&m, None, &o).unwrap();
         assert_clean(&c.mesh);
         prop_assert!(c.mesh.triangles.len() <= m.triangles.len());
+        prop_assert_eq!(counts_of(&c), topology_counts(&c.mesh));
         for how in [Representative::Quadric, Representative::Average] {
             let o = ClusterOptions::default().with_representative(how);
             let c = cluster_mesh(&m, Some(target), &o).unwrap();

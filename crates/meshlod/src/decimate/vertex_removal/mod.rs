@@ -230,9 +230,26 @@ struct Plan {
     delta: f64,
 }
 
+/// One triangle's record.
+#[derive(Debug, Clone, Copy)]
+#[repr(align(64))]
+struct Tri {
+    /// Points (`[DEAD; 3]` once removed).
+    p: [u32; 3],
+    /// Wedges (input vertices) of the corners.
+    wedge: [u32; 3],
+    /// Group (material), 0 without groups.
+    group: u32,
+    /// Error bound `e` (module docs).
+    err: f64,
+    /// The sum of twice-area normals of the input triangles it stands for (a removal
+    /// shares its fan's sum among the new triangles).
+    origin: [f64; 3],
+}
+
 /// Read-only connectivity for the lazy edge lookups of a [`Plan`].
 struct Links<'a> {
-    tri: &'a [[u32; 3]],
+    tri: &'a [Tri],
     fans: &'a [u32],
     fan_start: &'a [u32],
     fan_len: &'a [u32],
@@ -249,7 +266,7 @@ impl Plan {
             let s = l.fan_start[q as usize] as usize;
             let mut bits = 0u64;
             for &t in &l.fans[s..s + l.fan_len[q as usize] as usize] {
-                for &x in &l.tri[t as usize] {
+                for &x in &l.tri[t as usize].p {
                     if x != q && x != self.v && l.mark[x as usize] == self.gen {
                         bits |= 1u64 << l.slot[x as usize];
                     }
@@ -272,13 +289,11 @@ pub struct VertexRemoval {
     pos: Vec<[f64; 3]>,
     locked: Vec<bool>,
     version: Vec<u32>,
-    tri: Vec<[u32; 3]>,
-    wedge: Vec<[u32; 3]>,
-    group: Option<Vec<u32>>,
-    err: Vec<f64>,
-    /// Per triangle: the sum of twice-area normals of the input triangles it stands
-    /// for (a removal shares its fan's sum among the new triangles).
-    origin: Vec<[f64; 3]>,
+    /// Per triangle: points, wedges, group, error bound and origin normal, in one
+    /// cache line (an evaluation reads all of them for every triangle of a fan).
+    tri: Vec<Tri>,
+    /// Whether the input had groups (materials).
+    has_groups: bool,
     fan_start: Vec<u32>,
     fan_len: Vec<u32>,
     fan_cap: Vec<u32>,
@@ -358,16 +373,29 @@ impl VertexRemoval {
             .map(|p| surface.kind(p) == VertexKind::Locked)
             .collect();
         let eps = f64::from(f32::EPSILON) * surface.diagonal();
+        let has_groups = group.is_some();
+        let tri: Vec<Tri> = tri
+            .iter()
+            .zip(&wedge)
+            .enumerate()
+            .map(|(i, (&p, &w))| {
+                let [a, b, c] = p.map(|x| pos[x as usize]);
+                Tri {
+                    p,
+                    wedge: w,
+                    group: group.as_ref().map_or(0, |g| g[i]),
+                    err: 0.0,
+                    origin: cross(sub(b, a), sub(c, a)),
+                }
+            })
+            .collect();
         let mut s = Self {
             pos,
             locked,
             version: vec![0; np],
-            err: vec![0.0; tri.len()],
-            origin: Vec::new(),
             live: tri.len(),
             tri,
-            wedge,
-            group,
+            has_groups,
             fan_start: Vec::new(),
             fan_len: Vec::new(),
             fan_cap: Vec::new(),
@@ -384,14 +412,6 @@ impl VertexRemoval {
             order_by_bound: options.stop.max_error.is_some(),
         };
         s.build_fans();
-        s.origin = s
-            .tri
-            .iter()
-            .map(|t| {
-                let [a, b, c] = t.map(|p| s.pos[p as usize]);
-                cross(sub(b, a), sub(c, a))
-            })
-            .collect();
         s
     }
 
@@ -399,8 +419,8 @@ impl VertexRemoval {
         let np = self.pos.len();
         let mut len = vec![0u32; np];
         for t in &self.tri {
-            if t[0] != DEAD {
-                for &p in t {
+            if t.p[0] != DEAD {
+                for &p in &t.p {
                     len[p as usize] += 1;
                 }
             }
@@ -417,8 +437,8 @@ impl VertexRemoval {
         let mut fans = vec![DEAD; total as usize];
         let mut fill = vec![0u32; np];
         for (ti, t) in self.tri.iter().enumerate() {
-            if t[0] != DEAD {
-                for &p in t {
+            if t.p[0] != DEAD {
+                for &p in &t.p {
                     let p = p as usize;
                     fans[(start[p] + fill[p]) as usize] = ti as u32;
                     fill[p] += 1;
@@ -470,7 +490,7 @@ impl VertexRemoval {
         let mut w = s;
         for r in s..s + l {
             let t = self.fans[r];
-            if self.tri[t as usize][0] != DEAD {
+            if self.tri[t as usize].p[0] != DEAD {
                 self.fans[w] = t;
                 w += 1;
             }
@@ -503,7 +523,7 @@ impl VertexRemoval {
         }
         let mut items = [(0u32, 0u32, 0u32); MAX_VALENCE];
         for (i, &t) in self.fan(v).iter().enumerate() {
-            let tt = self.tri[t as usize];
+            let tt = self.tri[t as usize].p;
             let k = if tt[0] == v {
                 0
             } else if tt[1] == v {
@@ -588,7 +608,7 @@ impl VertexRemoval {
         plan.right.clear();
         plan.left.clear();
         let corner = |t: u32, p: u32| -> usize {
-            let tt = self.tri[t as usize];
+            let tt = self.tri[t as usize].p;
             if tt[0] == p {
                 0
             } else if tt[1] == p {
@@ -604,20 +624,20 @@ impl VertexRemoval {
         plan.origin.clear();
         plan.origin_sum = [0.0; 3];
         for &t in &plan.tris {
-            let o = self.origin[t as usize];
+            let o = self.tri[t as usize].origin;
             plan.origin.push(o);
             plan.origin_sum = add(plan.origin_sum, o);
         }
         for i in 0..m {
             let q = plan.q[i];
             let r = if i < nt {
-                self.wedge[plan.tris[i] as usize][corner(plan.tris[i], q)]
+                self.tri[plan.tris[i] as usize].wedge[corner(plan.tris[i], q)]
             } else {
                 DEAD
             };
             let l = if i > 0 || plan.closed {
                 let t = plan.tris[(i + nt - 1) % nt];
-                self.wedge[t as usize][corner(t, q)]
+                self.tri[t as usize].wedge[corner(t, q)]
             } else {
                 DEAD
             };
@@ -633,11 +653,9 @@ impl VertexRemoval {
             let t0 = plan.tris[(i + nt - 1) % nt];
             let t1 = plan.tris[i];
             let is_seam = plan.left[i] != plan.right[i]
-                || self.wedge[t0 as usize][corner(t0, v)] != self.wedge[t1 as usize][corner(t1, v)]
-                || self
-                    .group
-                    .as_ref()
-                    .is_some_and(|g| g[t0 as usize] != g[t1 as usize]);
+                || self.tri[t0 as usize].wedge[corner(t0, v)]
+                    != self.tri[t1 as usize].wedge[corner(t1, v)]
+                || self.tri[t0 as usize].group != self.tri[t1 as usize].group;
             let n0 = plan.normal[(i + nt - 1) % nt];
             let n1 = plan.normal[i];
             let crease = dot(n0, n1) < self.cos_feature * norm(n0) * norm(n1);
@@ -764,16 +782,34 @@ impl VertexRemoval {
         } else {
             dot(base, n_avg).abs()
         };
+        // Every new triangle spans loop points, so when all loop points lie on one
+        // side of `v` along `n_avg` the new patch lies in that slab and `v` is at least
+        // the nearest loop point's height from it: a lower bound of every gap below,
+        // and a much tighter one than the average plane on a curved surface.
+        let (mut h_min, mut h_max) = (f64::INFINITY, f64::NEG_INFINITY);
+        for p in &self.plan.pos {
+            let h = dot(*p, n_avg);
+            h_min = h_min.min(h);
+            h_max = h_max.max(h);
+        }
+        let slab = if h_min > 0.0 {
+            h_min
+        } else if h_max < 0.0 {
+            -h_max
+        } else {
+            0.0
+        };
+        let schroeder = schroeder.max(slab);
         let mut e_fan: f64 = 0.0;
         for &t in &self.plan.tris {
-            e_fan = e_fan.max(self.err[t as usize]);
+            e_fan = e_fan.max(self.tri[t as usize].err);
         }
         if !full {
             self.plan.cost = e_fan + schroeder;
             self.plan.delta = schroeder;
             return Ok(());
         }
-        let group_of = |s: &Self, t: u32| s.group.as_ref().map_or(0, |g| g[t as usize]);
+        let group_of = |s: &Self, t: u32| s.tri[t as usize].group;
         self.plan.out.clear();
         self.plan.diagonals.clear();
         let mut delta = schroeder;
@@ -784,7 +820,7 @@ impl VertexRemoval {
             let on_edge = self
                 .fan(a)
                 .iter()
-                .filter(|&&t| self.tri[t as usize].contains(&b))
+                .filter(|&&t| self.tri[t as usize].p.contains(&b))
                 .count();
             if on_edge != 2 {
                 return Err(Refusal::Duplicate);
@@ -842,7 +878,7 @@ impl VertexRemoval {
                 // Valence 3: the new triangle must not exist already (tetrahedron).
                 let [a, b, c] = [self.plan.q[0], self.plan.q[1], self.plan.q[2]];
                 let dup = self.fan(a).iter().any(|&t| {
-                    let tt = self.tri[t as usize];
+                    let tt = self.tri[t as usize].p;
                     !tt.contains(&v) && tt.contains(&b) && tt.contains(&c)
                 });
                 if dup {
@@ -1020,13 +1056,13 @@ impl VertexRemoval {
         let n = r.normal;
         let (e1, e2) = frame(n);
         let p2 = |p: [f64; 3]| [dot(p, e1), dot(p, e2)];
+        // The vertical gap at `v` when `v` projects into the patch; it is never below
+        // the Euclidean distance from `v` to the patch (the point above `v` is on the
+        // patch), so that is only computed when there is no vertical gap.
         let mut gap_v = f64::INFINITY;
-        let mut euclid = f64::INFINITY;
-        for t in &plan.out[from..] {
-            let [a, b, c] = t.corner.map(|k| plan.pos[k as usize]);
-            let (cp, _) = closest_point([0.0; 3], a, b, c);
-            euclid = euclid.min(norm(cp));
-            if vertical && gap_v.is_infinite() {
+        if vertical {
+            for t in &plan.out[from..] {
+                let [a, b, c] = t.corner.map(|k| plan.pos[k as usize]);
                 let [a2, b2, c2] = [p2(a), p2(b), p2(c)];
                 let det = (b2[0] - a2[0]) * (c2[1] - a2[1]) - (b2[1] - a2[1]) * (c2[0] - a2[0]);
                 if det > 0.0 {
@@ -1036,15 +1072,19 @@ impl VertexRemoval {
                     if w0 >= -1e-12 && w1 >= -1e-12 && w2 >= -1e-12 {
                         let x = add(add(scale(a, w0), scale(b, w1)), scale(c, w2));
                         gap_v = dot(x, n).abs();
+                        break;
                     }
                 }
             }
         }
-        let mut gap = if gap_v.is_finite() {
-            gap_v.max(euclid)
-        } else {
-            euclid
-        };
+        let mut gap = gap_v;
+        if gap.is_infinite() {
+            for t in &plan.out[from..] {
+                let [a, b, c] = t.corner.map(|k| plan.pos[k as usize]);
+                let (cp, _) = closest_point([0.0; 3], a, b, c);
+                gap = gap.min(norm(cp));
+            }
+        }
         if gap.is_infinite() {
             gap = 0.0;
         }
@@ -1089,13 +1129,21 @@ impl VertexRemoval {
         if plan.normal.iter().any(|&t| dot(t, n) <= 0.0) {
             return false;
         }
+        // Every triangle faces `n`, so each spoke-to-spoke step turns the projected
+        // spoke counterclockwise by less than π; the number of times it crosses the
+        // positive `e1` axis (`e2` coordinate from negative to non-negative) is the winding number of the fan around `v`.
+        let (_, e2) = frame(n);
         let m = plan.q.len();
-        let mut turn = 0.0;
-        for i in 0..m {
-            let (a, b) = (plan.pos[i], plan.pos[(i + 1) % m]);
-            turn += dot(cross(a, b), n).atan2(dot(a, b) - dot(a, n) * dot(b, n));
+        let mut windings = 0;
+        let mut prev = plan.pos[m - 1];
+        for &p in &plan.pos {
+            let (ya, yb) = (dot(prev, e2), dot(p, e2));
+            if ya < 0.0 && yb >= 0.0 {
+                windings += 1;
+            }
+            prev = p;
         }
-        turn < 3.0 * std::f64::consts::PI
+        windings == 1
     }
 
     /// Performs the removal planned by the last successful `evaluate(v)`.
@@ -1108,7 +1156,7 @@ impl VertexRemoval {
         };
         let plan = std::mem::take(&mut self.plan);
         for &t in &plan.tris {
-            self.tri[t as usize] = [DEAD; 3];
+            self.tri[t as usize].p = [DEAD; 3];
         }
         self.fan_len[v as usize] = 0;
         for &q in &plan.q {
@@ -1117,13 +1165,13 @@ impl VertexRemoval {
         for (slot, nt) in plan.out.iter().enumerate() {
             let t = plan.tris[slot];
             let pts = nt.corner.map(|k| plan.q[k as usize]);
-            self.tri[t as usize] = pts;
-            self.wedge[t as usize] = nt.wedge;
-            if let Some(g) = &mut self.group {
-                g[t as usize] = nt.group;
-            }
-            self.err[t as usize] = e_new;
-            self.origin[t as usize] = share;
+            self.tri[t as usize] = Tri {
+                p: pts,
+                wedge: nt.wedge,
+                group: nt.group,
+                err: e_new,
+                origin: share,
+            };
             for p in pts {
                 self.fan_push(p, t);
             }
@@ -1315,15 +1363,15 @@ impl VertexRemoval {
     pub fn output_triangles(&self) -> TriangleLists {
         let mut wedges = Vec::with_capacity(self.live);
         let mut points = Vec::with_capacity(self.live);
-        let mut groups = self.group.as_ref().map(|_| Vec::with_capacity(self.live));
-        for (t, tt) in self.tri.iter().enumerate() {
-            if tt[0] == DEAD {
+        let mut groups = self.has_groups.then(|| Vec::with_capacity(self.live));
+        for tt in &self.tri {
+            if tt.p[0] == DEAD {
                 continue;
             }
-            points.push(*tt);
-            wedges.push(self.wedge[t]);
-            if let (Some(g), Some(src)) = (&mut groups, &self.group) {
-                g.push(src[t]);
+            points.push(tt.p);
+            wedges.push(tt.wedge);
+            if let Some(g) = &mut groups {
+                g.push(tt.group);
             }
         }
         (wedges, points, groups)
@@ -1335,9 +1383,8 @@ impl VertexRemoval {
     pub fn triangle_errors(&self) -> Vec<f64> {
         self.tri
             .iter()
-            .zip(&self.err)
-            .filter(|(t, _)| t[0] != DEAD)
-            .map(|(_, &e)| e)
+            .filter(|t| t.p[0] != DEAD)
+            .map(|t| t.err)
             .collect()
     }
 }

@@ -228,6 +228,8 @@ struct Plan {
     cost: f64,
     /// The step's own distance `δ`.
     delta: f64,
+    /// The loop-level edge check of the plan (see `VertexRemoval::check_loop`).
+    loop_check: LoopCheck,
 }
 
 /// One triangle's record.
@@ -245,6 +247,30 @@ struct Tri {
     /// The sum of twice-area normals of the input triangles it stands for (a removal
     /// shares its fan's sum among the new triangles).
     origin: [f64; 3],
+}
+
+/// How much of a removal [`VertexRemoval::evaluate`] works out.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Mode {
+    /// Classification and the Schroeder distance only: lower bounds of the key.
+    Cheap,
+    /// The whole plan and its exact key, but without the checks against existing
+    /// edges (done by [`VertexRemoval::deferred_checks_pass`] when the plan is used).
+    Geometry,
+    /// The whole plan with every check.
+    Full,
+}
+
+/// The loop-level check of a plan that needs the mesh's edges.
+#[derive(Debug, Clone, Copy, Default)]
+enum LoopCheck {
+    /// None.
+    #[default]
+    None,
+    /// Loop points `i` and `j` must not share an edge (boundary or feature line).
+    Edge(usize, usize),
+    /// The valence-3 triangle must not exist already.
+    Valence3,
 }
 
 /// Read-only connectivity for the lazy edge lookups of a [`Plan`].
@@ -716,7 +742,10 @@ impl VertexRemoval {
     /// Without `full`, stops after the classification and the Schroeder distance:
     /// `plan.delta` and `plan.cost` are then lower bounds of the full values (`δ`
     /// includes the Schroeder distance), and no triangles are planned.
-    fn evaluate(&mut self, v: u32, full: bool) -> Result<(), Refusal> {
+    fn evaluate(&mut self, v: u32, mode: Mode) -> Result<(), Refusal> {
+        let full = mode != Mode::Cheap;
+        let checks = mode == Mode::Full;
+        self.plan.loop_check = LoopCheck::None;
         if self.locked[v as usize] {
             return Err(Refusal::Kind);
         }
@@ -838,14 +867,10 @@ impl VertexRemoval {
             }; 2];
             let mut nr = 1;
             if open {
-                if self.loop_adjacent(0, m - 1) {
-                    return Err(Refusal::Duplicate);
-                }
+                self.plan.loop_check = LoopCheck::Edge(0, m - 1);
             } else if shape.split {
                 let (i0, j0) = (features[0], features[1]);
-                if self.loop_adjacent(i0, j0) {
-                    return Err(Refusal::Duplicate);
-                }
+                self.plan.loop_check = LoopCheck::Edge(i0, j0);
                 let half = |from: usize, to: usize| -> [f64; 3] {
                     let mut n = [0.0; 3];
                     let mut i = from;
@@ -875,22 +900,17 @@ impl VertexRemoval {
                 ];
                 nr = 2;
             } else if m == 3 {
-                // Valence 3: the new triangle must not exist already (tetrahedron).
-                let [a, b, c] = [self.plan.q[0], self.plan.q[1], self.plan.q[2]];
-                let dup = self.fan(a).iter().any(|&t| {
-                    let tt = self.tri[t as usize].p;
-                    !tt.contains(&v) && tt.contains(&b) && tt.contains(&c)
-                });
-                if dup {
-                    return Err(Refusal::Duplicate);
-                }
+                self.plan.loop_check = LoopCheck::Valence3;
+            }
+            if checks {
+                self.check_loop()?;
             }
             let closed_whole = !open && !shape.split;
             for r in &regions[..nr] {
                 let group = group_of(self, self.plan.tris[r.first]);
                 let before = self.plan.out.len();
                 let d0 = self.plan.diagonals.len();
-                self.split_region(r, group)?;
+                self.split_region(r, group, checks)?;
                 delta = delta.max(self.region_gap(r, before, d0, closed_whole));
             }
             if closed_whole && !self.fan_is_height_field(n_avg) {
@@ -904,7 +924,7 @@ impl VertexRemoval {
 
     /// Triangulates region `r` of the loop by recursive splitting, appending to
     /// `plan.out` and `plan.diagonals`.
-    fn split_region(&mut self, r: &Region, group: u32) -> Result<(), Refusal> {
+    fn split_region(&mut self, r: &Region, group: u32, checks: bool) -> Result<(), Refusal> {
         let links = Links {
             tri: &self.tri,
             fans: &self.fans,
@@ -927,6 +947,14 @@ impl VertexRemoval {
         }
         plan.stack.push((0, plan.polys.len() as u32));
         let n = r.normal;
+        // The split-plane tests in the frame of the region's plane: for a line
+        // direction `d` the split plane's normal is `d × n`, and `(p − a)·(d × n)` is
+        // the 2D cross product of the projections of `p − a` and `d`.
+        let (e1, e2) = frame(n);
+        let mut uv = [[0.0f64; 2]; MAX_VALENCE + 1];
+        for (k, p) in plan.pos.iter().enumerate() {
+            uv[k] = [dot(*p, e1), dot(*p, e2)];
+        }
         let mut poly = [0u8; MAX_VALENCE + 1];
         while let Some((off, len)) = plan.stack.pop() {
             let len = len as usize;
@@ -978,9 +1006,15 @@ impl VertexRemoval {
             let mut forbid = [0u64; MAX_VALENCE + 1];
             let best = loop {
                 let mut best: Option<(f64, usize, usize)> = None;
+                let mut w = [[0.0f64; 2]; MAX_VALENCE + 1];
+                for (k, &pk) in poly.iter().enumerate() {
+                    w[k] = uv[pk as usize];
+                }
+                let w = &w[..len];
                 for i in 0..len {
                     let pi = poly[i] as usize;
                     let a = plan.pos[pi];
+                    let a2 = w[i];
                     for j in i + 2..len {
                         if i == 0 && j == len - 1 {
                             continue;
@@ -991,21 +1025,31 @@ impl VertexRemoval {
                         }
                         let d = sub(plan.pos[pj], a);
                         let ld2 = dot(d, d);
-                        // Split-plane normal, unnormalised: |s| = |d| sin(d, n).
-                        let s = cross(d, n);
-                        let ls2 = dot(s, s);
+                        // Split-plane normal `d × n`, unnormalised: its length is
+                        // |d| sin(d, n), the length of the projection of `d`.
+                        let d2 = [w[j][0] - a2[0], w[j][1] - a2[1]];
+                        let ls2 = d2[0] * d2[0] + d2[1] * d2[1];
                         if ld2 == 0.0 || ls2 <= 1e-24 * ld2 {
                             continue;
                         }
+                        // Signed distances (times |d × n|) of the other points: those
+                        // strictly between i and j on one side, the rest on the other.
+                        let side = |k: usize| (w[k][0] - a2[0]) * d2[1] - (w[k][1] - a2[1]) * d2[0];
                         let mut min = f64::INFINITY;
                         let mut ok = true;
-                        for (k, &pk) in poly.iter().enumerate() {
-                            if k == i || k == j {
-                                continue;
+                        for k in i + 1..j {
+                            let signed = side(k);
+                            if signed <= 0.0 {
+                                ok = false;
+                                break;
                             }
-                            let dist = dot(sub(plan.pos[pk as usize], a), s);
-                            let inside = k > i && k < j;
-                            let signed = if inside { dist } else { -dist };
+                            min = min.min(signed);
+                        }
+                        if !ok {
+                            continue;
+                        }
+                        for k in (0..i).chain(j + 1..len) {
+                            let signed = -side(k);
                             if signed <= 0.0 {
                                 ok = false;
                                 break;
@@ -1024,7 +1068,7 @@ impl VertexRemoval {
                 }
                 match best {
                     Some((_, i, j))
-                        if plan.adjacent(&links, poly[i] as usize, poly[j] as usize) =>
+                        if checks && plan.adjacent(&links, poly[i] as usize, poly[j] as usize) =>
                     {
                         forbid[i] |= 1u64 << j;
                     }
@@ -1146,6 +1190,44 @@ impl VertexRemoval {
         windings == 1
     }
 
+    /// The loop-level edge checks of the planned removal (they do not depend on the
+    /// triangulation): the boundary or feature line must not be an edge already, and
+    /// the valence-3 triangle must not exist already (tetrahedron).
+    fn check_loop(&mut self) -> Result<(), Refusal> {
+        let dup = match self.plan.loop_check {
+            LoopCheck::None => false,
+            LoopCheck::Edge(i, j) => self.loop_adjacent(i, j),
+            LoopCheck::Valence3 => {
+                let [a, b, c] = [self.plan.q[0], self.plan.q[1], self.plan.q[2]];
+                let v = self.plan.v;
+                self.fan(a).iter().any(|&t| {
+                    let tt = self.tri[t as usize].p;
+                    !tt.contains(&v) && tt.contains(&b) && tt.contains(&c)
+                })
+            }
+        };
+        if dup {
+            Err(Refusal::Duplicate)
+        } else {
+            Ok(())
+        }
+    }
+
+    /// After an evaluation in [`Mode::Geometry`]: the deferred checks. `Err` when the
+    /// loop-level check fails (the removal is refused in any mode), `Ok(false)` when
+    /// a planned diagonal is an edge already (the full evaluation then picks another
+    /// split), `Ok(true)` when the plan is what [`Mode::Full`] would have made.
+    fn deferred_checks_pass(&mut self) -> Result<bool, Refusal> {
+        self.check_loop()?;
+        for d in 0..self.plan.diagonals.len() {
+            let [i, j] = self.plan.diagonals[d];
+            if self.loop_adjacent(i as usize, j as usize) {
+                return Ok(false);
+            }
+        }
+        Ok(true)
+    }
+
     /// Performs the removal planned by the last successful `evaluate(v)`.
     fn apply(&mut self, v: u32) {
         let e_new = self.plan.cost;
@@ -1242,7 +1324,7 @@ impl VertexRemoval {
 
     /// Queues `v` with the cheap lower bound of its key (`b = 0`).
     fn push(&mut self, heap: &mut Heap, v: u32) {
-        match self.evaluate(v, false) {
+        match self.evaluate(v, Mode::Cheap) {
             Ok(()) => heap.push(
                 Item {
                     a: v,
@@ -1301,17 +1383,49 @@ impl VertexRemoval {
                 over_error = true;
                 break;
             }
-            if let Err(r) = self.evaluate(v, true) {
+            // An entry with a lower bound (`b = 0`) is planned without the edge
+            // checks first: most such plans are queued again with their exact key
+            // (below) and invalidated by a neighbour's removal before they come
+            // back, so the checks are left to the plans that are used.
+            let mode = if item.b == 0 {
+                Mode::Geometry
+            } else {
+                Mode::Full
+            };
+            if let Err(r) = self.evaluate(v, mode) {
                 self.count(r);
                 continue;
             }
-            // The entry held a lower bound: if the full key is above the next
-            // entry, queue it again with the full key (best-first stays exact).
-            if item.b == 0 {
-                let exact = Item { b: 1, ..item }.with_cost(self.key());
-                if heap.peek_cost_bits().is_some_and(|c| c < exact.cost_bits) {
-                    heap.push(exact);
-                    continue;
+            // The entry held a lower bound (or a key planned without the edge
+            // checks): if the exact key is above the next entry, queue it again with
+            // the exact key (best-first stays exact).
+            let exact = Item { b: 1, ..item }.with_cost(self.key());
+            if exact.cost_bits > item.cost_bits
+                && heap.peek_cost_bits().is_some_and(|c| c < exact.cost_bits)
+            {
+                heap.push(exact);
+                continue;
+            }
+            if mode == Mode::Geometry {
+                match self.deferred_checks_pass() {
+                    Ok(true) => {}
+                    Ok(false) => {
+                        // A planned diagonal is an edge already: plan with every
+                        // check, and compare the new key again.
+                        if let Err(r) = self.evaluate(v, Mode::Full) {
+                            self.count(r);
+                            continue;
+                        }
+                        let exact = Item { b: 1, ..item }.with_cost(self.key());
+                        if heap.peek_cost_bits().is_some_and(|c| c < exact.cost_bits) {
+                            heap.push(exact);
+                            continue;
+                        }
+                    }
+                    Err(r) => {
+                        self.count(r);
+                        continue;
+                    }
                 }
             }
             if self.plan.cost > max_error {

@@ -232,6 +232,24 @@ struct Plan {
     loop_check: LoopCheck,
 }
 
+/// One point's record.
+#[derive(Debug, Clone, Copy, Default)]
+struct Pt {
+    /// Position (local frame of the surface).
+    pos: [f64; 3],
+    /// The fan: `fans[start..start + len]`, room for `cap`.
+    start: u32,
+    len: u32,
+    cap: u32,
+    /// Bumped whenever the fan changes (lazy queue invalidation).
+    version: u32,
+    /// Generation mark and loop slot of the current evaluation.
+    mark: u32,
+    slot: u8,
+    /// Never removed.
+    locked: bool,
+}
+
 /// One triangle's record.
 #[derive(Debug, Clone, Copy)]
 #[repr(align(64))]
@@ -277,10 +295,7 @@ enum LoopCheck {
 struct Links<'a> {
     tri: &'a [Tri],
     fans: &'a [u32],
-    fan_start: &'a [u32],
-    fan_len: &'a [u32],
-    mark: &'a [u32],
-    slot: &'a [u8],
+    pt: &'a [Pt],
 }
 
 impl Plan {
@@ -289,12 +304,12 @@ impl Plan {
     fn adjacent(&mut self, l: &Links<'_>, i: usize, j: usize) -> bool {
         if self.adj_done & (1u64 << i) == 0 {
             let q = self.q[i];
-            let s = l.fan_start[q as usize] as usize;
+            let s = l.pt[q as usize].start as usize;
             let mut bits = 0u64;
-            for &t in &l.fans[s..s + l.fan_len[q as usize] as usize] {
+            for &t in &l.fans[s..s + l.pt[q as usize].len as usize] {
                 for &x in &l.tri[t as usize].p {
-                    if x != q && x != self.v && l.mark[x as usize] == self.gen {
-                        bits |= 1u64 << l.slot[x as usize];
+                    if x != q && x != self.v && l.pt[x as usize].mark == self.gen {
+                        bits |= 1u64 << l.pt[x as usize].slot;
                     }
                 }
             }
@@ -312,17 +327,13 @@ impl Plan {
 /// with [`output_triangles`](Self::output_triangles).
 #[derive(Debug)]
 pub struct VertexRemoval {
-    pos: Vec<[f64; 3]>,
-    locked: Vec<bool>,
-    version: Vec<u32>,
     /// Per triangle: points, wedges, group, error bound and origin normal, in one
     /// cache line (an evaluation reads all of them for every triangle of a fan).
     tri: Vec<Tri>,
     /// Whether the input had groups (materials).
     has_groups: bool,
-    fan_start: Vec<u32>,
-    fan_len: Vec<u32>,
-    fan_cap: Vec<u32>,
+    /// Per point: position, fan slice, version, marks.
+    pt: Vec<Pt>,
     fans: Vec<u32>,
     fan_garbage: usize,
     live: usize,
@@ -330,8 +341,6 @@ pub struct VertexRemoval {
     cos_feature: f64,
     area_eps: f64,
     plan: Plan,
-    mark: Vec<u32>,
-    slot: Vec<u8>,
     gen: u32,
     rejections: Rejections,
     /// Queue key: the accumulated bound (with a maximum error) or the step's `δ`.
@@ -394,9 +403,12 @@ impl VertexRemoval {
     pub fn new(surface: &Surface, options: VertexRemovalOptions) -> Self {
         let (wedge, tri, group) = surface.output_triangles();
         let np = surface.point_count();
-        let pos: Vec<[f64; 3]> = (0..np as u32).map(|p| surface.local(p)).collect();
-        let locked = (0..np as u32)
-            .map(|p| surface.kind(p) == VertexKind::Locked)
+        let pt: Vec<Pt> = (0..np as u32)
+            .map(|p| Pt {
+                pos: surface.local(p),
+                locked: surface.kind(p) == VertexKind::Locked,
+                ..Pt::default()
+            })
             .collect();
         let eps = f64::from(f32::EPSILON) * surface.diagonal();
         let has_groups = group.is_some();
@@ -405,7 +417,7 @@ impl VertexRemoval {
             .zip(&wedge)
             .enumerate()
             .map(|(i, (&p, &w))| {
-                let [a, b, c] = p.map(|x| pos[x as usize]);
+                let [a, b, c] = p.map(|x| pt[x as usize].pos);
                 Tri {
                     p,
                     wedge: w,
@@ -416,23 +428,16 @@ impl VertexRemoval {
             })
             .collect();
         let mut s = Self {
-            pos,
-            locked,
-            version: vec![0; np],
+            pt,
             live: tri.len(),
             tri,
             has_groups,
-            fan_start: Vec::new(),
-            fan_len: Vec::new(),
-            fan_cap: Vec::new(),
             fans: Vec::new(),
             fan_garbage: 0,
             cos_feature: options.feature_angle.clamp(0.0, 180.0).to_radians().cos(),
             options,
             area_eps: eps * eps,
             plan: Plan::default(),
-            mark: vec![0; np],
-            slot: vec![0; np],
             gen: 0,
             rejections: Rejections::default(),
             order_by_bound: options.stop.max_error.is_some(),
@@ -442,7 +447,7 @@ impl VertexRemoval {
     }
 
     fn build_fans(&mut self) {
-        let np = self.pos.len();
+        let np = self.pt.len();
         let mut len = vec![0u32; np];
         for t in &self.tri {
             if t.p[0] != DEAD {
@@ -471,9 +476,11 @@ impl VertexRemoval {
                 }
             }
         }
-        self.fan_start = start;
-        self.fan_len = fill;
-        self.fan_cap = cap;
+        for (p, pt) in self.pt.iter_mut().enumerate() {
+            pt.start = start[p];
+            pt.len = fill[p];
+            pt.cap = cap[p];
+        }
         self.fans = fans;
         self.fan_garbage = 0;
     }
@@ -486,33 +493,33 @@ impl VertexRemoval {
 
     /// The triangles around point `p`.
     fn fan(&self, p: u32) -> &[u32] {
-        let s = self.fan_start[p as usize] as usize;
-        &self.fans[s..s + self.fan_len[p as usize] as usize]
+        let s = self.pt[p as usize].start as usize;
+        &self.fans[s..s + self.pt[p as usize].len as usize]
     }
 
     fn fan_push(&mut self, p: u32, t: u32) {
         let pi = p as usize;
-        if self.fan_len[pi] == self.fan_cap[pi] {
-            let cap = (self.fan_cap[pi] * 2).max(4);
-            let s = self.fan_start[pi] as usize;
-            let l = self.fan_len[pi] as usize;
+        if self.pt[pi].len == self.pt[pi].cap {
+            let cap = (self.pt[pi].cap * 2).max(4);
+            let s = self.pt[pi].start as usize;
+            let l = self.pt[pi].len as usize;
             let new_start = self.fans.len();
             self.fans.extend_from_within(s..s + l);
             self.fans.resize(new_start + cap as usize, DEAD);
-            self.fan_garbage += self.fan_cap[pi] as usize;
-            self.fan_start[pi] = new_start as u32;
-            self.fan_cap[pi] = cap;
+            self.fan_garbage += self.pt[pi].cap as usize;
+            self.pt[pi].start = new_start as u32;
+            self.pt[pi].cap = cap;
         }
-        let at = (self.fan_start[pi] + self.fan_len[pi]) as usize;
+        let at = (self.pt[pi].start + self.pt[pi].len) as usize;
         self.fans[at] = t;
-        self.fan_len[pi] += 1;
+        self.pt[pi].len += 1;
     }
 
     /// Drops dead triangles from the fan of `p`.
     fn fan_prune(&mut self, p: u32) {
         let pi = p as usize;
-        let s = self.fan_start[pi] as usize;
-        let l = self.fan_len[pi] as usize;
+        let s = self.pt[pi].start as usize;
+        let l = self.pt[pi].len as usize;
         let mut w = s;
         for r in s..s + l {
             let t = self.fans[r];
@@ -521,13 +528,15 @@ impl VertexRemoval {
                 w += 1;
             }
         }
-        self.fan_len[pi] = (w - s) as u32;
+        self.pt[pi].len = (w - s) as u32;
     }
 
     fn next_gen(&mut self) -> u32 {
         self.gen = self.gen.wrapping_add(1);
         if self.gen == 0 {
-            self.mark.fill(0);
+            for p in &mut self.pt {
+                p.mark = 0;
+            }
             self.gen = 1;
         }
         self.gen
@@ -543,7 +552,7 @@ impl VertexRemoval {
 
     /// Fills `plan.q`, `plan.tris`, `plan.closed` from the fan of `v`.
     fn build_loop(&mut self, v: u32) -> Result<(), Refusal> {
-        let fan_len = self.fan_len[v as usize] as usize;
+        let fan_len = self.pt[v as usize].len as usize;
         if fan_len == 0 || fan_len > MAX_VALENCE {
             return Err(Refusal::Kind);
         }
@@ -612,10 +621,10 @@ impl VertexRemoval {
         // No point twice in the loop (a pinched fan).
         let g = self.next_gen();
         for &q in &self.plan.q {
-            if self.mark[q as usize] == g || q == v {
+            if self.pt[q as usize].mark == g || q == v {
                 return Err(Refusal::Kind);
             }
-            self.mark[q as usize] = g;
+            self.pt[q as usize].mark = g;
         }
         Ok(())
     }
@@ -626,10 +635,10 @@ impl VertexRemoval {
         let plan = &mut self.plan;
         let m = plan.q.len();
         let nt = plan.tris.len();
-        let pv = self.pos[v as usize];
+        let pv = self.pt[v as usize].pos;
         plan.pos.clear();
         plan.pos
-            .extend(plan.q.iter().map(|&q| sub(self.pos[q as usize], pv)));
+            .extend(plan.q.iter().map(|&q| sub(self.pt[q as usize].pos, pv)));
         plan.normal.clear();
         plan.right.clear();
         plan.left.clear();
@@ -746,7 +755,7 @@ impl VertexRemoval {
         let full = mode != Mode::Cheap;
         let checks = mode == Mode::Full;
         self.plan.loop_check = LoopCheck::None;
-        if self.locked[v as usize] {
+        if self.pt[v as usize].locked {
             return Err(Refusal::Kind);
         }
         self.build_loop(v)?;
@@ -768,8 +777,8 @@ impl VertexRemoval {
         // Existing edges between loop points, found lazily (`Plan::adjacent`).
         let g = self.next_gen();
         for (i, &q) in self.plan.q.iter().enumerate() {
-            self.mark[q as usize] = g;
-            self.slot[q as usize] = i as u8;
+            self.pt[q as usize].mark = g;
+            self.pt[q as usize].slot = i as u8;
         }
         self.plan.adj.clear();
         self.plan.adj.resize(m, 0);
@@ -928,10 +937,7 @@ impl VertexRemoval {
         let links = Links {
             tri: &self.tri,
             fans: &self.fans,
-            fan_start: &self.fan_start,
-            fan_len: &self.fan_len,
-            mark: &self.mark,
-            slot: &self.slot,
+            pt: &self.pt,
         };
         let plan = &mut self.plan;
         let m = plan.q.len();
@@ -1240,7 +1246,7 @@ impl VertexRemoval {
         for &t in &plan.tris {
             self.tri[t as usize].p = [DEAD; 3];
         }
-        self.fan_len[v as usize] = 0;
+        self.pt[v as usize].len = 0;
         for &q in &plan.q {
             self.fan_prune(q);
         }
@@ -1259,9 +1265,9 @@ impl VertexRemoval {
             }
         }
         self.live -= plan.tris.len() - plan.out.len();
-        self.version[v as usize] = self.version[v as usize].wrapping_add(1);
+        self.pt[v as usize].version = self.pt[v as usize].version.wrapping_add(1);
         for &q in &plan.q {
-            self.version[q as usize] = self.version[q as usize].wrapping_add(1);
+            self.pt[q as usize].version = self.pt[q as usize].version.wrapping_add(1);
         }
         self.plan = plan;
         if self.fan_garbage > self.fans.len() / 2 && self.fan_garbage > 1 << 16 {
@@ -1270,19 +1276,19 @@ impl VertexRemoval {
     }
 
     fn compact_fans(&mut self) {
-        let np = self.pos.len();
+        let np = self.pt.len();
         let mut fans = Vec::with_capacity(self.fans.len() - self.fan_garbage);
         for p in 0..np {
-            let l = self.fan_len[p];
-            let s = self.fan_start[p] as usize;
-            self.fan_start[p] = fans.len() as u32;
+            let l = self.pt[p].len;
+            let s = self.pt[p].start as usize;
+            self.pt[p].start = fans.len() as u32;
             if l == 0 {
-                self.fan_cap[p] = 0;
+                self.pt[p].cap = 0;
                 continue;
             }
             fans.extend_from_slice(&self.fans[s..s + l as usize]);
             fans.extend(std::iter::repeat_n(DEAD, 2));
-            self.fan_cap[p] = l + 2;
+            self.pt[p].cap = l + 2;
         }
         self.fans = fans;
         self.fan_garbage = 0;
@@ -1293,10 +1299,7 @@ impl VertexRemoval {
         let links = Links {
             tri: &self.tri,
             fans: &self.fans,
-            fan_start: &self.fan_start,
-            fan_len: &self.fan_len,
-            mark: &self.mark,
-            slot: &self.slot,
+            pt: &self.pt,
         };
         self.plan.adjacent(&links, i, j)
     }
@@ -1329,7 +1332,7 @@ impl VertexRemoval {
                 Item {
                     a: v,
                     b: 0,
-                    stamp: self.version[v as usize],
+                    stamp: self.pt[v as usize].version,
                     cost_bits: 0,
                 }
                 .with_cost(self.key()),
@@ -1362,10 +1365,10 @@ impl VertexRemoval {
             outcome.stop_detail = "the input has no triangles".into();
             return outcome;
         }
-        let mut heap = Heap::with_capacity(self.pos.len());
+        let mut heap = Heap::with_capacity(self.pt.len());
         if self.live > target {
-            for v in 0..self.pos.len() as u32 {
-                if self.fan_len[v as usize] > 0 {
+            for v in 0..self.pt.len() as u32 {
+                if self.pt[v as usize].len > 0 {
                     self.push(&mut heap, v);
                 }
             }
@@ -1376,7 +1379,7 @@ impl VertexRemoval {
         while self.live > target {
             let Some(item) = heap.pop() else { break };
             let v = item.a;
-            if item.stamp != self.version[v as usize] || self.fan_len[v as usize] == 0 {
+            if item.stamp != self.pt[v as usize].version || self.pt[v as usize].len == 0 {
                 continue;
             }
             if self.order_by_bound && f64::from(f32::from_bits(item.cost_bits)) > max_error {

@@ -619,13 +619,18 @@ impl VertexRemoval {
             return Err(Refusal::Kind);
         }
         // No point twice in the loop (a pinched fan).
+        // The marks and slots also serve the edge lookups (`Plan::adjacent`).
         let g = self.next_gen();
-        for &q in &self.plan.q {
-            if self.pt[q as usize].mark == g || q == v {
+        for (i, &q) in self.plan.q.iter().enumerate() {
+            let p = &mut self.pt[q as usize];
+            if p.mark == g || q == v {
                 return Err(Refusal::Kind);
             }
-            self.pt[q as usize].mark = g;
+            p.mark = g;
+            p.slot = i as u8;
         }
+        self.plan.gen = g;
+        self.plan.v = v;
         Ok(())
     }
 
@@ -655,13 +660,6 @@ impl VertexRemoval {
         for i in 0..nt {
             let j = (i + 1) % m;
             plan.normal.push(cross(plan.pos[i], plan.pos[j]));
-        }
-        plan.origin.clear();
-        plan.origin_sum = [0.0; 3];
-        for &t in &plan.tris {
-            let o = self.tri[t as usize].origin;
-            plan.origin.push(o);
-            plan.origin_sum = add(plan.origin_sum, o);
         }
         for i in 0..m {
             let q = plan.q[i];
@@ -774,17 +772,11 @@ impl VertexRemoval {
         }
         let m = self.plan.q.len();
         let nt = self.plan.tris.len();
-        // Existing edges between loop points, found lazily (`Plan::adjacent`).
-        let g = self.next_gen();
-        for (i, &q) in self.plan.q.iter().enumerate() {
-            self.pt[q as usize].mark = g;
-            self.pt[q as usize].slot = i as u8;
-        }
+        // Existing edges between loop points, found lazily (`Plan::adjacent`, with
+        // the marks of `build_loop`).
         self.plan.adj.clear();
         self.plan.adj.resize(m, 0);
         self.plan.adj_done = 0;
-        self.plan.gen = g;
-        self.plan.v = v;
         // Average plane.
         let mut area_n = [0.0; 3];
         let mut area_sum = 0.0;
@@ -848,6 +840,13 @@ impl VertexRemoval {
             return Ok(());
         }
         let group_of = |s: &Self, t: u32| s.tri[t as usize].group;
+        self.plan.origin.clear();
+        self.plan.origin_sum = [0.0; 3];
+        for &t in &self.plan.tris {
+            let o = self.tri[t as usize].origin;
+            self.plan.origin.push(o);
+            self.plan.origin_sum = add(self.plan.origin_sum, o);
+        }
         self.plan.out.clear();
         self.plan.diagonals.clear();
         let mut delta = schroeder;

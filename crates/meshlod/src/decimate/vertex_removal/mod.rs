@@ -79,6 +79,12 @@
 //! passes over all points with a threshold that grows until the target — removes
 //! points in index order inside a pass, so a pass mixes cheap and expensive removals
 //! under its threshold; the queue costs one heap operation per evaluation.
+//!
+//! A popped lower-bound entry is planned without the checks against existing edges
+//! (most such plans are queued again with their exact key and invalidated by a
+//! neighbour's removal before they come back); the checks run on the plans about to
+//! be performed, and when a planned diagonal turns out to be an edge already the plan
+//! is made again with every check, as if planned so at once.
 
 #[cfg(test)]
 mod tests;

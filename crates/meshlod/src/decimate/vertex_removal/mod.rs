@@ -79,6 +79,12 @@
 //! passes over all points with a threshold that grows until the target — removes
 //! points in index order inside a pass, so a pass mixes cheap and expensive removals
 //! under its threshold; the queue costs one heap operation per evaluation.
+//!
+//! A popped lower-bound entry is planned without the checks against existing edges
+//! (most such plans are queued again with their exact key and invalidated by a
+//! neighbour's removal before they come back); the checks run on the plans about to
+//! be performed, and when a planned diagonal turns out to be an edge already the plan
+//! is made again with every check, as if planned so at once.
 
 #[cfg(test)]
 mod tests;
@@ -228,16 +234,74 @@ struct Plan {
     cost: f64,
     /// The step's own distance `δ`.
     delta: f64,
+    /// The loop-level edge check of the plan (see `VertexRemoval::check_loop`).
+    loop_check: LoopCheck,
+}
+
+/// One point's record.
+#[derive(Debug, Clone, Copy, Default)]
+struct Pt {
+    /// Position (local frame of the surface).
+    pos: [f64; 3],
+    /// The fan: `fans[start..start + len]`, room for `cap`.
+    start: u32,
+    len: u32,
+    cap: u32,
+    /// Bumped whenever the fan changes (lazy queue invalidation).
+    version: u32,
+    /// Generation mark and loop slot of the current evaluation.
+    mark: u32,
+    slot: u8,
+    /// Never removed.
+    locked: bool,
+}
+
+/// One triangle's record.
+#[derive(Debug, Clone, Copy)]
+#[repr(align(64))]
+struct Tri {
+    /// Points (`[DEAD; 3]` once removed).
+    p: [u32; 3],
+    /// Wedges (input vertices) of the corners.
+    wedge: [u32; 3],
+    /// Group (material), 0 without groups.
+    group: u32,
+    /// Error bound `e` (module docs).
+    err: f64,
+    /// The sum of twice-area normals of the input triangles it stands for (a removal
+    /// shares its fan's sum among the new triangles).
+    origin: [f64; 3],
+}
+
+/// How much of a removal [`VertexRemoval::evaluate`] works out.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Mode {
+    /// Classification and the Schroeder distance only: lower bounds of the key.
+    Cheap,
+    /// The whole plan and its exact key, but without the checks against existing
+    /// edges (done by [`VertexRemoval::deferred_checks_pass`] when the plan is used).
+    Geometry,
+    /// The whole plan with every check.
+    Full,
+}
+
+/// The loop-level check of a plan that needs the mesh's edges.
+#[derive(Debug, Clone, Copy, Default)]
+enum LoopCheck {
+    /// None.
+    #[default]
+    None,
+    /// Loop points `i` and `j` must not share an edge (boundary or feature line).
+    Edge(usize, usize),
+    /// The valence-3 triangle must not exist already.
+    Valence3,
 }
 
 /// Read-only connectivity for the lazy edge lookups of a [`Plan`].
 struct Links<'a> {
-    tri: &'a [[u32; 3]],
+    tri: &'a [Tri],
     fans: &'a [u32],
-    fan_start: &'a [u32],
-    fan_len: &'a [u32],
-    mark: &'a [u32],
-    slot: &'a [u8],
+    pt: &'a [Pt],
 }
 
 impl Plan {
@@ -246,12 +310,12 @@ impl Plan {
     fn adjacent(&mut self, l: &Links<'_>, i: usize, j: usize) -> bool {
         if self.adj_done & (1u64 << i) == 0 {
             let q = self.q[i];
-            let s = l.fan_start[q as usize] as usize;
+            let s = l.pt[q as usize].start as usize;
             let mut bits = 0u64;
-            for &t in &l.fans[s..s + l.fan_len[q as usize] as usize] {
-                for &x in &l.tri[t as usize] {
-                    if x != q && x != self.v && l.mark[x as usize] == self.gen {
-                        bits |= 1u64 << l.slot[x as usize];
+            for &t in &l.fans[s..s + l.pt[q as usize].len as usize] {
+                for &x in &l.tri[t as usize].p {
+                    if x != q && x != self.v && l.pt[x as usize].mark == self.gen {
+                        bits |= 1u64 << l.pt[x as usize].slot;
                     }
                 }
             }
@@ -269,19 +333,13 @@ impl Plan {
 /// with [`output_triangles`](Self::output_triangles).
 #[derive(Debug)]
 pub struct VertexRemoval {
-    pos: Vec<[f64; 3]>,
-    locked: Vec<bool>,
-    version: Vec<u32>,
-    tri: Vec<[u32; 3]>,
-    wedge: Vec<[u32; 3]>,
-    group: Option<Vec<u32>>,
-    err: Vec<f64>,
-    /// Per triangle: the sum of twice-area normals of the input triangles it stands
-    /// for (a removal shares its fan's sum among the new triangles).
-    origin: Vec<[f64; 3]>,
-    fan_start: Vec<u32>,
-    fan_len: Vec<u32>,
-    fan_cap: Vec<u32>,
+    /// Per triangle: points, wedges, group, error bound and origin normal, in one
+    /// cache line (an evaluation reads all of them for every triangle of a fan).
+    tri: Vec<Tri>,
+    /// Whether the input had groups (materials).
+    has_groups: bool,
+    /// Per point: position, fan slice, version, marks.
+    pt: Vec<Pt>,
     fans: Vec<u32>,
     fan_garbage: usize,
     live: usize,
@@ -289,8 +347,6 @@ pub struct VertexRemoval {
     cos_feature: f64,
     area_eps: f64,
     plan: Plan,
-    mark: Vec<u32>,
-    slot: Vec<u8>,
     gen: u32,
     rejections: Rejections,
     /// Queue key: the accumulated bound (with a maximum error) or the step's `δ`.
@@ -353,54 +409,55 @@ impl VertexRemoval {
     pub fn new(surface: &Surface, options: VertexRemovalOptions) -> Self {
         let (wedge, tri, group) = surface.output_triangles();
         let np = surface.point_count();
-        let pos: Vec<[f64; 3]> = (0..np as u32).map(|p| surface.local(p)).collect();
-        let locked = (0..np as u32)
-            .map(|p| surface.kind(p) == VertexKind::Locked)
+        let pt: Vec<Pt> = (0..np as u32)
+            .map(|p| Pt {
+                pos: surface.local(p),
+                locked: surface.kind(p) == VertexKind::Locked,
+                ..Pt::default()
+            })
             .collect();
         let eps = f64::from(f32::EPSILON) * surface.diagonal();
+        let has_groups = group.is_some();
+        let tri: Vec<Tri> = tri
+            .iter()
+            .zip(&wedge)
+            .enumerate()
+            .map(|(i, (&p, &w))| {
+                let [a, b, c] = p.map(|x| pt[x as usize].pos);
+                Tri {
+                    p,
+                    wedge: w,
+                    group: group.as_ref().map_or(0, |g| g[i]),
+                    err: 0.0,
+                    origin: cross(sub(b, a), sub(c, a)),
+                }
+            })
+            .collect();
         let mut s = Self {
-            pos,
-            locked,
-            version: vec![0; np],
-            err: vec![0.0; tri.len()],
-            origin: Vec::new(),
+            pt,
             live: tri.len(),
             tri,
-            wedge,
-            group,
-            fan_start: Vec::new(),
-            fan_len: Vec::new(),
-            fan_cap: Vec::new(),
+            has_groups,
             fans: Vec::new(),
             fan_garbage: 0,
             cos_feature: options.feature_angle.clamp(0.0, 180.0).to_radians().cos(),
             options,
             area_eps: eps * eps,
             plan: Plan::default(),
-            mark: vec![0; np],
-            slot: vec![0; np],
             gen: 0,
             rejections: Rejections::default(),
             order_by_bound: options.stop.max_error.is_some(),
         };
         s.build_fans();
-        s.origin = s
-            .tri
-            .iter()
-            .map(|t| {
-                let [a, b, c] = t.map(|p| s.pos[p as usize]);
-                cross(sub(b, a), sub(c, a))
-            })
-            .collect();
         s
     }
 
     fn build_fans(&mut self) {
-        let np = self.pos.len();
+        let np = self.pt.len();
         let mut len = vec![0u32; np];
         for t in &self.tri {
-            if t[0] != DEAD {
-                for &p in t {
+            if t.p[0] != DEAD {
+                for &p in &t.p {
                     len[p as usize] += 1;
                 }
             }
@@ -417,17 +474,19 @@ impl VertexRemoval {
         let mut fans = vec![DEAD; total as usize];
         let mut fill = vec![0u32; np];
         for (ti, t) in self.tri.iter().enumerate() {
-            if t[0] != DEAD {
-                for &p in t {
+            if t.p[0] != DEAD {
+                for &p in &t.p {
                     let p = p as usize;
                     fans[(start[p] + fill[p]) as usize] = ti as u32;
                     fill[p] += 1;
                 }
             }
         }
-        self.fan_start = start;
-        self.fan_len = fill;
-        self.fan_cap = cap;
+        for (p, pt) in self.pt.iter_mut().enumerate() {
+            pt.start = start[p];
+            pt.len = fill[p];
+            pt.cap = cap[p];
+        }
         self.fans = fans;
         self.fan_garbage = 0;
     }
@@ -440,48 +499,50 @@ impl VertexRemoval {
 
     /// The triangles around point `p`.
     fn fan(&self, p: u32) -> &[u32] {
-        let s = self.fan_start[p as usize] as usize;
-        &self.fans[s..s + self.fan_len[p as usize] as usize]
+        let s = self.pt[p as usize].start as usize;
+        &self.fans[s..s + self.pt[p as usize].len as usize]
     }
 
     fn fan_push(&mut self, p: u32, t: u32) {
         let pi = p as usize;
-        if self.fan_len[pi] == self.fan_cap[pi] {
-            let cap = (self.fan_cap[pi] * 2).max(4);
-            let s = self.fan_start[pi] as usize;
-            let l = self.fan_len[pi] as usize;
+        if self.pt[pi].len == self.pt[pi].cap {
+            let cap = (self.pt[pi].cap * 2).max(4);
+            let s = self.pt[pi].start as usize;
+            let l = self.pt[pi].len as usize;
             let new_start = self.fans.len();
             self.fans.extend_from_within(s..s + l);
             self.fans.resize(new_start + cap as usize, DEAD);
-            self.fan_garbage += self.fan_cap[pi] as usize;
-            self.fan_start[pi] = new_start as u32;
-            self.fan_cap[pi] = cap;
+            self.fan_garbage += self.pt[pi].cap as usize;
+            self.pt[pi].start = new_start as u32;
+            self.pt[pi].cap = cap;
         }
-        let at = (self.fan_start[pi] + self.fan_len[pi]) as usize;
+        let at = (self.pt[pi].start + self.pt[pi].len) as usize;
         self.fans[at] = t;
-        self.fan_len[pi] += 1;
+        self.pt[pi].len += 1;
     }
 
     /// Drops dead triangles from the fan of `p`.
     fn fan_prune(&mut self, p: u32) {
         let pi = p as usize;
-        let s = self.fan_start[pi] as usize;
-        let l = self.fan_len[pi] as usize;
+        let s = self.pt[pi].start as usize;
+        let l = self.pt[pi].len as usize;
         let mut w = s;
         for r in s..s + l {
             let t = self.fans[r];
-            if self.tri[t as usize][0] != DEAD {
+            if self.tri[t as usize].p[0] != DEAD {
                 self.fans[w] = t;
                 w += 1;
             }
         }
-        self.fan_len[pi] = (w - s) as u32;
+        self.pt[pi].len = (w - s) as u32;
     }
 
     fn next_gen(&mut self) -> u32 {
         self.gen = self.gen.wrapping_add(1);
         if self.gen == 0 {
-            self.mark.fill(0);
+            for p in &mut self.pt {
+                p.mark = 0;
+            }
             self.gen = 1;
         }
         self.gen
@@ -497,13 +558,13 @@ impl VertexRemoval {
 
     /// Fills `plan.q`, `plan.tris`, `plan.closed` from the fan of `v`.
     fn build_loop(&mut self, v: u32) -> Result<(), Refusal> {
-        let fan_len = self.fan_len[v as usize] as usize;
+        let fan_len = self.pt[v as usize].len as usize;
         if fan_len == 0 || fan_len > MAX_VALENCE {
             return Err(Refusal::Kind);
         }
         let mut items = [(0u32, 0u32, 0u32); MAX_VALENCE];
         for (i, &t) in self.fan(v).iter().enumerate() {
-            let tt = self.tri[t as usize];
+            let tt = self.tri[t as usize].p;
             let k = if tt[0] == v {
                 0
             } else if tt[1] == v {
@@ -564,13 +625,18 @@ impl VertexRemoval {
             return Err(Refusal::Kind);
         }
         // No point twice in the loop (a pinched fan).
+        // The marks and slots also serve the edge lookups (`Plan::adjacent`).
         let g = self.next_gen();
-        for &q in &self.plan.q {
-            if self.mark[q as usize] == g || q == v {
+        for (i, &q) in self.plan.q.iter().enumerate() {
+            let p = &mut self.pt[q as usize];
+            if p.mark == g || q == v {
                 return Err(Refusal::Kind);
             }
-            self.mark[q as usize] = g;
+            p.mark = g;
+            p.slot = i as u8;
         }
+        self.plan.gen = g;
+        self.plan.v = v;
         Ok(())
     }
 
@@ -580,15 +646,15 @@ impl VertexRemoval {
         let plan = &mut self.plan;
         let m = plan.q.len();
         let nt = plan.tris.len();
-        let pv = self.pos[v as usize];
+        let pv = self.pt[v as usize].pos;
         plan.pos.clear();
         plan.pos
-            .extend(plan.q.iter().map(|&q| sub(self.pos[q as usize], pv)));
+            .extend(plan.q.iter().map(|&q| sub(self.pt[q as usize].pos, pv)));
         plan.normal.clear();
         plan.right.clear();
         plan.left.clear();
         let corner = |t: u32, p: u32| -> usize {
-            let tt = self.tri[t as usize];
+            let tt = self.tri[t as usize].p;
             if tt[0] == p {
                 0
             } else if tt[1] == p {
@@ -601,23 +667,16 @@ impl VertexRemoval {
             let j = (i + 1) % m;
             plan.normal.push(cross(plan.pos[i], plan.pos[j]));
         }
-        plan.origin.clear();
-        plan.origin_sum = [0.0; 3];
-        for &t in &plan.tris {
-            let o = self.origin[t as usize];
-            plan.origin.push(o);
-            plan.origin_sum = add(plan.origin_sum, o);
-        }
         for i in 0..m {
             let q = plan.q[i];
             let r = if i < nt {
-                self.wedge[plan.tris[i] as usize][corner(plan.tris[i], q)]
+                self.tri[plan.tris[i] as usize].wedge[corner(plan.tris[i], q)]
             } else {
                 DEAD
             };
             let l = if i > 0 || plan.closed {
                 let t = plan.tris[(i + nt - 1) % nt];
-                self.wedge[t as usize][corner(t, q)]
+                self.tri[t as usize].wedge[corner(t, q)]
             } else {
                 DEAD
             };
@@ -633,11 +692,9 @@ impl VertexRemoval {
             let t0 = plan.tris[(i + nt - 1) % nt];
             let t1 = plan.tris[i];
             let is_seam = plan.left[i] != plan.right[i]
-                || self.wedge[t0 as usize][corner(t0, v)] != self.wedge[t1 as usize][corner(t1, v)]
-                || self
-                    .group
-                    .as_ref()
-                    .is_some_and(|g| g[t0 as usize] != g[t1 as usize]);
+                || self.tri[t0 as usize].wedge[corner(t0, v)]
+                    != self.tri[t1 as usize].wedge[corner(t1, v)]
+                || self.tri[t0 as usize].group != self.tri[t1 as usize].group;
             let n0 = plan.normal[(i + nt - 1) % nt];
             let n1 = plan.normal[i];
             let crease = dot(n0, n1) < self.cos_feature * norm(n0) * norm(n1);
@@ -698,8 +755,11 @@ impl VertexRemoval {
     /// Without `full`, stops after the classification and the Schroeder distance:
     /// `plan.delta` and `plan.cost` are then lower bounds of the full values (`δ`
     /// includes the Schroeder distance), and no triangles are planned.
-    fn evaluate(&mut self, v: u32, full: bool) -> Result<(), Refusal> {
-        if self.locked[v as usize] {
+    fn evaluate(&mut self, v: u32, mode: Mode) -> Result<(), Refusal> {
+        let full = mode != Mode::Cheap;
+        let checks = mode == Mode::Full;
+        self.plan.loop_check = LoopCheck::None;
+        if self.pt[v as usize].locked {
             return Err(Refusal::Kind);
         }
         self.build_loop(v)?;
@@ -718,17 +778,11 @@ impl VertexRemoval {
         }
         let m = self.plan.q.len();
         let nt = self.plan.tris.len();
-        // Existing edges between loop points, found lazily (`Plan::adjacent`).
-        let g = self.next_gen();
-        for (i, &q) in self.plan.q.iter().enumerate() {
-            self.mark[q as usize] = g;
-            self.slot[q as usize] = i as u8;
-        }
+        // Existing edges between loop points, found lazily (`Plan::adjacent`, with
+        // the marks of `build_loop`).
         self.plan.adj.clear();
         self.plan.adj.resize(m, 0);
         self.plan.adj_done = 0;
-        self.plan.gen = g;
-        self.plan.v = v;
         // Average plane.
         let mut area_n = [0.0; 3];
         let mut area_sum = 0.0;
@@ -764,16 +818,41 @@ impl VertexRemoval {
         } else {
             dot(base, n_avg).abs()
         };
+        // Every new triangle spans loop points, so when all loop points lie on one
+        // side of `v` along `n_avg` the new patch lies in that slab and `v` is at least
+        // the nearest loop point's height from it: a lower bound of every gap below,
+        // and a much tighter one than the average plane on a curved surface.
+        let (mut h_min, mut h_max) = (f64::INFINITY, f64::NEG_INFINITY);
+        for p in &self.plan.pos {
+            let h = dot(*p, n_avg);
+            h_min = h_min.min(h);
+            h_max = h_max.max(h);
+        }
+        let slab = if h_min > 0.0 {
+            h_min
+        } else if h_max < 0.0 {
+            -h_max
+        } else {
+            0.0
+        };
+        let schroeder = schroeder.max(slab);
         let mut e_fan: f64 = 0.0;
         for &t in &self.plan.tris {
-            e_fan = e_fan.max(self.err[t as usize]);
+            e_fan = e_fan.max(self.tri[t as usize].err);
         }
         if !full {
             self.plan.cost = e_fan + schroeder;
             self.plan.delta = schroeder;
             return Ok(());
         }
-        let group_of = |s: &Self, t: u32| s.group.as_ref().map_or(0, |g| g[t as usize]);
+        let group_of = |s: &Self, t: u32| s.tri[t as usize].group;
+        self.plan.origin.clear();
+        self.plan.origin_sum = [0.0; 3];
+        for &t in &self.plan.tris {
+            let o = self.tri[t as usize].origin;
+            self.plan.origin.push(o);
+            self.plan.origin_sum = add(self.plan.origin_sum, o);
+        }
         self.plan.out.clear();
         self.plan.diagonals.clear();
         let mut delta = schroeder;
@@ -784,7 +863,7 @@ impl VertexRemoval {
             let on_edge = self
                 .fan(a)
                 .iter()
-                .filter(|&&t| self.tri[t as usize].contains(&b))
+                .filter(|&&t| self.tri[t as usize].p.contains(&b))
                 .count();
             if on_edge != 2 {
                 return Err(Refusal::Duplicate);
@@ -802,14 +881,10 @@ impl VertexRemoval {
             }; 2];
             let mut nr = 1;
             if open {
-                if self.loop_adjacent(0, m - 1) {
-                    return Err(Refusal::Duplicate);
-                }
+                self.plan.loop_check = LoopCheck::Edge(0, m - 1);
             } else if shape.split {
                 let (i0, j0) = (features[0], features[1]);
-                if self.loop_adjacent(i0, j0) {
-                    return Err(Refusal::Duplicate);
-                }
+                self.plan.loop_check = LoopCheck::Edge(i0, j0);
                 let half = |from: usize, to: usize| -> [f64; 3] {
                     let mut n = [0.0; 3];
                     let mut i = from;
@@ -839,22 +914,17 @@ impl VertexRemoval {
                 ];
                 nr = 2;
             } else if m == 3 {
-                // Valence 3: the new triangle must not exist already (tetrahedron).
-                let [a, b, c] = [self.plan.q[0], self.plan.q[1], self.plan.q[2]];
-                let dup = self.fan(a).iter().any(|&t| {
-                    let tt = self.tri[t as usize];
-                    !tt.contains(&v) && tt.contains(&b) && tt.contains(&c)
-                });
-                if dup {
-                    return Err(Refusal::Duplicate);
-                }
+                self.plan.loop_check = LoopCheck::Valence3;
+            }
+            if checks {
+                self.check_loop()?;
             }
             let closed_whole = !open && !shape.split;
             for r in &regions[..nr] {
                 let group = group_of(self, self.plan.tris[r.first]);
                 let before = self.plan.out.len();
                 let d0 = self.plan.diagonals.len();
-                self.split_region(r, group)?;
+                self.split_region(r, group, checks)?;
                 delta = delta.max(self.region_gap(r, before, d0, closed_whole));
             }
             if closed_whole && !self.fan_is_height_field(n_avg) {
@@ -868,14 +938,11 @@ impl VertexRemoval {
 
     /// Triangulates region `r` of the loop by recursive splitting, appending to
     /// `plan.out` and `plan.diagonals`.
-    fn split_region(&mut self, r: &Region, group: u32) -> Result<(), Refusal> {
+    fn split_region(&mut self, r: &Region, group: u32, checks: bool) -> Result<(), Refusal> {
         let links = Links {
             tri: &self.tri,
             fans: &self.fans,
-            fan_start: &self.fan_start,
-            fan_len: &self.fan_len,
-            mark: &self.mark,
-            slot: &self.slot,
+            pt: &self.pt,
         };
         let plan = &mut self.plan;
         let m = plan.q.len();
@@ -891,6 +958,14 @@ impl VertexRemoval {
         }
         plan.stack.push((0, plan.polys.len() as u32));
         let n = r.normal;
+        // The split-plane tests in the frame of the region's plane: for a line
+        // direction `d` the split plane's normal is `d × n`, and `(p − a)·(d × n)` is
+        // the 2D cross product of the projections of `p − a` and `d`.
+        let (e1, e2) = frame(n);
+        let mut uv = [[0.0f64; 2]; MAX_VALENCE + 1];
+        for (k, p) in plan.pos.iter().enumerate() {
+            uv[k] = [dot(*p, e1), dot(*p, e2)];
+        }
         let mut poly = [0u8; MAX_VALENCE + 1];
         while let Some((off, len)) = plan.stack.pop() {
             let len = len as usize;
@@ -942,9 +1017,15 @@ impl VertexRemoval {
             let mut forbid = [0u64; MAX_VALENCE + 1];
             let best = loop {
                 let mut best: Option<(f64, usize, usize)> = None;
+                let mut w = [[0.0f64; 2]; MAX_VALENCE + 1];
+                for (k, &pk) in poly.iter().enumerate() {
+                    w[k] = uv[pk as usize];
+                }
+                let w = &w[..len];
                 for i in 0..len {
                     let pi = poly[i] as usize;
                     let a = plan.pos[pi];
+                    let a2 = w[i];
                     for j in i + 2..len {
                         if i == 0 && j == len - 1 {
                             continue;
@@ -955,21 +1036,31 @@ impl VertexRemoval {
                         }
                         let d = sub(plan.pos[pj], a);
                         let ld2 = dot(d, d);
-                        // Split-plane normal, unnormalised: |s| = |d| sin(d, n).
-                        let s = cross(d, n);
-                        let ls2 = dot(s, s);
+                        // Split-plane normal `d × n`, unnormalised: its length is
+                        // |d| sin(d, n), the length of the projection of `d`.
+                        let d2 = [w[j][0] - a2[0], w[j][1] - a2[1]];
+                        let ls2 = d2[0] * d2[0] + d2[1] * d2[1];
                         if ld2 == 0.0 || ls2 <= 1e-24 * ld2 {
                             continue;
                         }
+                        // Signed distances (times |d × n|) of the other points: those
+                        // strictly between i and j on one side, the rest on the other.
+                        let side = |k: usize| (w[k][0] - a2[0]) * d2[1] - (w[k][1] - a2[1]) * d2[0];
                         let mut min = f64::INFINITY;
                         let mut ok = true;
-                        for (k, &pk) in poly.iter().enumerate() {
-                            if k == i || k == j {
-                                continue;
+                        for k in i + 1..j {
+                            let signed = side(k);
+                            if signed <= 0.0 {
+                                ok = false;
+                                break;
                             }
-                            let dist = dot(sub(plan.pos[pk as usize], a), s);
-                            let inside = k > i && k < j;
-                            let signed = if inside { dist } else { -dist };
+                            min = min.min(signed);
+                        }
+                        if !ok {
+                            continue;
+                        }
+                        for k in (0..i).chain(j + 1..len) {
+                            let signed = -side(k);
                             if signed <= 0.0 {
                                 ok = false;
                                 break;
@@ -988,7 +1079,7 @@ impl VertexRemoval {
                 }
                 match best {
                     Some((_, i, j))
-                        if plan.adjacent(&links, poly[i] as usize, poly[j] as usize) =>
+                        if checks && plan.adjacent(&links, poly[i] as usize, poly[j] as usize) =>
                     {
                         forbid[i] |= 1u64 << j;
                     }
@@ -1020,13 +1111,13 @@ impl VertexRemoval {
         let n = r.normal;
         let (e1, e2) = frame(n);
         let p2 = |p: [f64; 3]| [dot(p, e1), dot(p, e2)];
+        // The vertical gap at `v` when `v` projects into the patch; it is never below
+        // the Euclidean distance from `v` to the patch (the point above `v` is on the
+        // patch), so that is only computed when there is no vertical gap.
         let mut gap_v = f64::INFINITY;
-        let mut euclid = f64::INFINITY;
-        for t in &plan.out[from..] {
-            let [a, b, c] = t.corner.map(|k| plan.pos[k as usize]);
-            let (cp, _) = closest_point([0.0; 3], a, b, c);
-            euclid = euclid.min(norm(cp));
-            if vertical && gap_v.is_infinite() {
+        if vertical {
+            for t in &plan.out[from..] {
+                let [a, b, c] = t.corner.map(|k| plan.pos[k as usize]);
                 let [a2, b2, c2] = [p2(a), p2(b), p2(c)];
                 let det = (b2[0] - a2[0]) * (c2[1] - a2[1]) - (b2[1] - a2[1]) * (c2[0] - a2[0]);
                 if det > 0.0 {
@@ -1036,15 +1127,19 @@ impl VertexRemoval {
                     if w0 >= -1e-12 && w1 >= -1e-12 && w2 >= -1e-12 {
                         let x = add(add(scale(a, w0), scale(b, w1)), scale(c, w2));
                         gap_v = dot(x, n).abs();
+                        break;
                     }
                 }
             }
         }
-        let mut gap = if gap_v.is_finite() {
-            gap_v.max(euclid)
-        } else {
-            euclid
-        };
+        let mut gap = gap_v;
+        if gap.is_infinite() {
+            for t in &plan.out[from..] {
+                let [a, b, c] = t.corner.map(|k| plan.pos[k as usize]);
+                let (cp, _) = closest_point([0.0; 3], a, b, c);
+                gap = gap.min(norm(cp));
+            }
+        }
         if gap.is_infinite() {
             gap = 0.0;
         }
@@ -1089,13 +1184,59 @@ impl VertexRemoval {
         if plan.normal.iter().any(|&t| dot(t, n) <= 0.0) {
             return false;
         }
+        // Every triangle faces `n`, so each spoke-to-spoke step turns the projected
+        // spoke counterclockwise by less than π; the number of times it crosses the
+        // positive `e1` axis (`e2` coordinate from negative to non-negative) is the winding number of the fan around `v`.
+        let (_, e2) = frame(n);
         let m = plan.q.len();
-        let mut turn = 0.0;
-        for i in 0..m {
-            let (a, b) = (plan.pos[i], plan.pos[(i + 1) % m]);
-            turn += dot(cross(a, b), n).atan2(dot(a, b) - dot(a, n) * dot(b, n));
+        let mut windings = 0;
+        let mut prev = plan.pos[m - 1];
+        for &p in &plan.pos {
+            let (ya, yb) = (dot(prev, e2), dot(p, e2));
+            if ya < 0.0 && yb >= 0.0 {
+                windings += 1;
+            }
+            prev = p;
         }
-        turn < 3.0 * std::f64::consts::PI
+        windings == 1
+    }
+
+    /// The loop-level edge checks of the planned removal (they do not depend on the
+    /// triangulation): the boundary or feature line must not be an edge already, and
+    /// the valence-3 triangle must not exist already (tetrahedron).
+    fn check_loop(&mut self) -> Result<(), Refusal> {
+        let dup = match self.plan.loop_check {
+            LoopCheck::None => false,
+            LoopCheck::Edge(i, j) => self.loop_adjacent(i, j),
+            LoopCheck::Valence3 => {
+                let [a, b, c] = [self.plan.q[0], self.plan.q[1], self.plan.q[2]];
+                let v = self.plan.v;
+                self.fan(a).iter().any(|&t| {
+                    let tt = self.tri[t as usize].p;
+                    !tt.contains(&v) && tt.contains(&b) && tt.contains(&c)
+                })
+            }
+        };
+        if dup {
+            Err(Refusal::Duplicate)
+        } else {
+            Ok(())
+        }
+    }
+
+    /// After an evaluation in [`Mode::Geometry`]: the deferred checks. `Err` when the
+    /// loop-level check fails (the removal is refused in any mode), `Ok(false)` when
+    /// a planned diagonal is an edge already (the full evaluation then picks another
+    /// split), `Ok(true)` when the plan is what [`Mode::Full`] would have made.
+    fn deferred_checks_pass(&mut self) -> Result<bool, Refusal> {
+        self.check_loop()?;
+        for d in 0..self.plan.diagonals.len() {
+            let [i, j] = self.plan.diagonals[d];
+            if self.loop_adjacent(i as usize, j as usize) {
+                return Ok(false);
+            }
+        }
+        Ok(true)
     }
 
     /// Performs the removal planned by the last successful `evaluate(v)`.
@@ -1108,30 +1249,30 @@ impl VertexRemoval {
         };
         let plan = std::mem::take(&mut self.plan);
         for &t in &plan.tris {
-            self.tri[t as usize] = [DEAD; 3];
+            self.tri[t as usize].p = [DEAD; 3];
         }
-        self.fan_len[v as usize] = 0;
+        self.pt[v as usize].len = 0;
         for &q in &plan.q {
             self.fan_prune(q);
         }
         for (slot, nt) in plan.out.iter().enumerate() {
             let t = plan.tris[slot];
             let pts = nt.corner.map(|k| plan.q[k as usize]);
-            self.tri[t as usize] = pts;
-            self.wedge[t as usize] = nt.wedge;
-            if let Some(g) = &mut self.group {
-                g[t as usize] = nt.group;
-            }
-            self.err[t as usize] = e_new;
-            self.origin[t as usize] = share;
+            self.tri[t as usize] = Tri {
+                p: pts,
+                wedge: nt.wedge,
+                group: nt.group,
+                err: e_new,
+                origin: share,
+            };
             for p in pts {
                 self.fan_push(p, t);
             }
         }
         self.live -= plan.tris.len() - plan.out.len();
-        self.version[v as usize] = self.version[v as usize].wrapping_add(1);
+        self.pt[v as usize].version = self.pt[v as usize].version.wrapping_add(1);
         for &q in &plan.q {
-            self.version[q as usize] = self.version[q as usize].wrapping_add(1);
+            self.pt[q as usize].version = self.pt[q as usize].version.wrapping_add(1);
         }
         self.plan = plan;
         if self.fan_garbage > self.fans.len() / 2 && self.fan_garbage > 1 << 16 {
@@ -1140,19 +1281,19 @@ impl VertexRemoval {
     }
 
     fn compact_fans(&mut self) {
-        let np = self.pos.len();
+        let np = self.pt.len();
         let mut fans = Vec::with_capacity(self.fans.len() - self.fan_garbage);
         for p in 0..np {
-            let l = self.fan_len[p];
-            let s = self.fan_start[p] as usize;
-            self.fan_start[p] = fans.len() as u32;
+            let l = self.pt[p].len;
+            let s = self.pt[p].start as usize;
+            self.pt[p].start = fans.len() as u32;
             if l == 0 {
-                self.fan_cap[p] = 0;
+                self.pt[p].cap = 0;
                 continue;
             }
             fans.extend_from_slice(&self.fans[s..s + l as usize]);
             fans.extend(std::iter::repeat_n(DEAD, 2));
-            self.fan_cap[p] = l + 2;
+            self.pt[p].cap = l + 2;
         }
         self.fans = fans;
         self.fan_garbage = 0;
@@ -1163,10 +1304,7 @@ impl VertexRemoval {
         let links = Links {
             tri: &self.tri,
             fans: &self.fans,
-            fan_start: &self.fan_start,
-            fan_len: &self.fan_len,
-            mark: &self.mark,
-            slot: &self.slot,
+            pt: &self.pt,
         };
         self.plan.adjacent(&links, i, j)
     }
@@ -1194,12 +1332,12 @@ impl VertexRemoval {
 
     /// Queues `v` with the cheap lower bound of its key (`b = 0`).
     fn push(&mut self, heap: &mut Heap, v: u32) {
-        match self.evaluate(v, false) {
+        match self.evaluate(v, Mode::Cheap) {
             Ok(()) => heap.push(
                 Item {
                     a: v,
                     b: 0,
-                    stamp: self.version[v as usize],
+                    stamp: self.pt[v as usize].version,
                     cost_bits: 0,
                 }
                 .with_cost(self.key()),
@@ -1232,10 +1370,10 @@ impl VertexRemoval {
             outcome.stop_detail = "the input has no triangles".into();
             return outcome;
         }
-        let mut heap = Heap::with_capacity(self.pos.len());
+        let mut heap = Heap::with_capacity(self.pt.len());
         if self.live > target {
-            for v in 0..self.pos.len() as u32 {
-                if self.fan_len[v as usize] > 0 {
+            for v in 0..self.pt.len() as u32 {
+                if self.pt[v as usize].len > 0 {
                     self.push(&mut heap, v);
                 }
             }
@@ -1246,24 +1384,56 @@ impl VertexRemoval {
         while self.live > target {
             let Some(item) = heap.pop() else { break };
             let v = item.a;
-            if item.stamp != self.version[v as usize] || self.fan_len[v as usize] == 0 {
+            if item.stamp != self.pt[v as usize].version || self.pt[v as usize].len == 0 {
                 continue;
             }
             if self.order_by_bound && f64::from(f32::from_bits(item.cost_bits)) > max_error {
                 over_error = true;
                 break;
             }
-            if let Err(r) = self.evaluate(v, true) {
+            // An entry with a lower bound (`b = 0`) is planned without the edge
+            // checks first: most such plans are queued again with their exact key
+            // (below) and invalidated by a neighbour's removal before they come
+            // back, so the checks are left to the plans that are used.
+            let mode = if item.b == 0 {
+                Mode::Geometry
+            } else {
+                Mode::Full
+            };
+            if let Err(r) = self.evaluate(v, mode) {
                 self.count(r);
                 continue;
             }
-            // The entry held a lower bound: if the full key is above the next
-            // entry, queue it again with the full key (best-first stays exact).
-            if item.b == 0 {
-                let exact = Item { b: 1, ..item }.with_cost(self.key());
-                if heap.peek_cost_bits().is_some_and(|c| c < exact.cost_bits) {
-                    heap.push(exact);
-                    continue;
+            // The entry held a lower bound (or a key planned without the edge
+            // checks): if the exact key is above the next entry, queue it again with
+            // the exact key (best-first stays exact).
+            let exact = Item { b: 1, ..item }.with_cost(self.key());
+            if exact.cost_bits > item.cost_bits
+                && heap.peek_cost_bits().is_some_and(|c| c < exact.cost_bits)
+            {
+                heap.push(exact);
+                continue;
+            }
+            if mode == Mode::Geometry {
+                match self.deferred_checks_pass() {
+                    Ok(true) => {}
+                    Ok(false) => {
+                        // A planned diagonal is an edge already: plan with every
+                        // check, and compare the new key again.
+                        if let Err(r) = self.evaluate(v, Mode::Full) {
+                            self.count(r);
+                            continue;
+                        }
+                        let exact = Item { b: 1, ..item }.with_cost(self.key());
+                        if heap.peek_cost_bits().is_some_and(|c| c < exact.cost_bits) {
+                            heap.push(exact);
+                            continue;
+                        }
+                    }
+                    Err(r) => {
+                        self.count(r);
+                        continue;
+                    }
                 }
             }
             if self.plan.cost > max_error {
@@ -1315,15 +1485,15 @@ impl VertexRemoval {
     pub fn output_triangles(&self) -> TriangleLists {
         let mut wedges = Vec::with_capacity(self.live);
         let mut points = Vec::with_capacity(self.live);
-        let mut groups = self.group.as_ref().map(|_| Vec::with_capacity(self.live));
-        for (t, tt) in self.tri.iter().enumerate() {
-            if tt[0] == DEAD {
+        let mut groups = self.has_groups.then(|| Vec::with_capacity(self.live));
+        for tt in &self.tri {
+            if tt.p[0] == DEAD {
                 continue;
             }
-            points.push(*tt);
-            wedges.push(self.wedge[t]);
-            if let (Some(g), Some(src)) = (&mut groups, &self.group) {
-                g.push(src[t]);
+            points.push(tt.p);
+            wedges.push(tt.wedge);
+            if let Some(g) = &mut groups {
+                g.push(tt.group);
             }
         }
         (wedges, points, groups)
@@ -1335,9 +1505,8 @@ impl VertexRemoval {
     pub fn triangle_errors(&self) -> Vec<f64> {
         self.tri
             .iter()
-            .zip(&self.err)
-            .filter(|(t, _)| t[0] != DEAD)
-            .map(|(_, &e)| e)
+            .filter(|t| t.p[0] != DEAD)
+            .map(|t| t.err)
             .collect()
     }
 }

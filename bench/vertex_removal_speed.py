@@ -15,21 +15,10 @@ import argparse, json, os, subprocess, sys, tempfile, time
 
 import vtk
 
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from vertex_removal_vs_vtk import read_vtk  # noqa: E402  (same reading and welding)
+
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-
-
-def read_vtk(path):
-    r = vtk.vtkPLYReader() if path.endswith(".ply") else vtk.vtkOBJReader()
-    r.SetFileName(path)
-    r.Update()
-    tri = vtk.vtkTriangleFilter()
-    tri.SetInputData(r.GetOutput())
-    tri.Update()
-    clean = vtk.vtkCleanPolyData()
-    clean.SetInputData(tri.GetOutput())
-    clean.SetTolerance(0.0)
-    clean.Update()
-    return clean.GetOutput()
 
 
 def vtk_time(poly, ratio, preserve):

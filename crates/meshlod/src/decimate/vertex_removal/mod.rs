@@ -1046,30 +1046,15 @@ impl VertexRemoval {
                         // Signed distances (times |d × n|) of the other points: those
                         // strictly between i and j on one side, the rest on the other.
                         let side = |k: usize| (w[k][0] - a2[0]) * d2[1] - (w[k][1] - a2[1]) * d2[0];
-                        let mut min = f64::INFINITY;
-                        let mut ok = true;
-                        for k in i + 1..j {
-                            let signed = side(k);
-                            if signed <= 0.0 {
-                                ok = false;
-                                break;
-                            }
-                            min = min.min(signed);
-                        }
-                        if !ok {
+                        // Both halves strictly on their own side, at least `min` away.
+                        let Some(m1) = min_positive((i + 1..j).map(side)) else {
                             continue;
-                        }
-                        for k in (0..i).chain(j + 1..len) {
-                            let signed = -side(k);
-                            if signed <= 0.0 {
-                                ok = false;
-                                break;
-                            }
-                            min = min.min(signed);
-                        }
-                        if !ok {
+                        };
+                        let Some(m2) = min_positive((0..i).chain(j + 1..len).map(|k| -side(k)))
+                        else {
                             continue;
-                        }
+                        };
+                        let min = m1.min(m2);
                         // aspect = (min / |s|) / |d|, compared squared (no square roots).
                         let aspect2 = min * min / (ls2 * ld2);
                         if best.is_none_or(|b| aspect2 > b.0) {
@@ -1509,4 +1494,18 @@ impl VertexRemoval {
             .map(|t| t.err)
             .collect()
     }
+}
+
+/// The smallest of `values` when all are positive (`+∞` when there are none), else
+/// `None`.
+#[inline]
+fn min_positive(values: impl Iterator<Item = f64>) -> Option<f64> {
+    let mut min = f64::INFINITY;
+    for v in values {
+        if v <= 0.0 {
+            return None;
+        }
+        min = min.min(v);
+    }
+    Some(min)
 }

@@ -247,50 +247,60 @@ impl CellTable {
     }
 }
 
-/// Open-addressing set of unordered triples of `u32` (triangles up to rotation and
-/// winding): [`Self::insert`] says whether the triple is new.
-#[derive(Debug, Clone)]
-pub struct TripleSet {
-    slots: Vec<[u32; 3]>,
+/// A key of an [`OpenSet`]: a sentinel that is never inserted, and where its probe
+/// sequence starts.
+trait SlotKey: Copy + PartialEq {
+    /// The value of an empty slot.
+    const EMPTY: Self;
+    /// Hash choosing the first slot tried.
+    fn slot_hash(self) -> u64;
+}
+
+impl SlotKey for [u32; 3] {
+    const EMPTY: Self = [u32::MAX; 3];
+    #[inline]
+    fn slot_hash(self) -> u64 {
+        mix((u64::from(self[0]) << 32 | u64::from(self[1])) ^ mix(u64::from(self[2])))
+    }
+}
+
+impl SlotKey for u64 {
+    const EMPTY: Self = 0;
+    #[inline]
+    fn slot_hash(self) -> u64 {
+        self >> 7
+    }
+}
+
+/// Linear-probing set of keys, grown to twice its size at half load.
+#[derive(Debug, Clone, Default)]
+struct OpenSet<K> {
+    slots: Vec<K>,
     mask: usize,
     len: usize,
 }
 
-impl TripleSet {
-    /// A set sized for about `expected` triples.
-    #[must_use]
-    pub fn with_capacity(expected: usize) -> Self {
+impl<K: SlotKey> OpenSet<K> {
+    /// Empties the set, sized for about `expected` keys (the memory is reused).
+    fn reset(&mut self, expected: usize) {
         let n = (expected.max(8) * 2).next_power_of_two();
-        Self {
-            slots: vec![[u32::MAX; 3]; n],
-            mask: n - 1,
-            len: 0,
-        }
+        self.slots.clear();
+        self.slots.resize(n, K::EMPTY);
+        self.mask = n - 1;
+        self.len = 0;
     }
 
-    /// Inserts the triple `t` (any order); `true` when it was not there yet. The
-    /// entries must be distinct and not `u32::MAX`.
+    /// Inserts `k` (never [`SlotKey::EMPTY`]); `true` when it was not there yet.
     #[inline]
-    pub fn insert(&mut self, t: [u32; 3]) -> bool {
-        let mut s = t;
-        if s[0] > s[1] {
-            s.swap(0, 1);
-        }
-        if s[1] > s[2] {
-            s.swap(1, 2);
-        }
-        if s[0] > s[1] {
-            s.swap(0, 1);
-        }
-        let h = mix((u64::from(s[0]) << 32 | u64::from(s[1])) ^ mix(u64::from(s[2])));
-        let mut i = h as usize & self.mask;
+    fn insert(&mut self, k: K) -> bool {
+        let mut i = k.slot_hash() as usize & self.mask;
         loop {
             let slot = self.slots[i];
-            if slot == s {
+            if slot == k {
                 return false;
             }
-            if slot[0] == u32::MAX {
-                self.slots[i] = s;
+            if slot == K::EMPTY {
+                self.slots[i] = k;
                 self.len += 1;
                 if self.len * 2 > self.slots.len() {
                     self.grow();
@@ -303,20 +313,57 @@ impl TripleSet {
 
     fn grow(&mut self) {
         let n = self.slots.len() * 2;
-        let old = std::mem::replace(&mut self.slots, vec![[u32::MAX; 3]; n]);
+        let old = std::mem::replace(&mut self.slots, vec![K::EMPTY; n]);
         self.mask = n - 1;
         self.len = 0;
-        for s in old {
-            if s[0] != u32::MAX {
-                self.insert(s);
+        for k in old {
+            if k != K::EMPTY {
+                self.insert(k);
             }
         }
+    }
+}
+
+/// The three entries of `t` in ascending order.
+#[inline]
+fn sorted3<T: PartialOrd>(mut t: [T; 3]) -> [T; 3] {
+    if t[0] > t[1] {
+        t.swap(0, 1);
+    }
+    if t[1] > t[2] {
+        t.swap(1, 2);
+    }
+    if t[0] > t[1] {
+        t.swap(0, 1);
+    }
+    t
+}
+
+/// Open-addressing set of unordered triples of `u32` (triangles up to rotation and
+/// winding): [`Self::insert`] says whether the triple is new.
+#[derive(Debug, Clone)]
+pub struct TripleSet(OpenSet<[u32; 3]>);
+
+impl TripleSet {
+    /// A set sized for about `expected` triples.
+    #[must_use]
+    pub fn with_capacity(expected: usize) -> Self {
+        let mut s = OpenSet::default();
+        s.reset(expected);
+        Self(s)
+    }
+
+    /// Inserts the triple `t` (any order); `true` when it was not there yet. The
+    /// entries must be distinct and not `u32::MAX`.
+    #[inline]
+    pub fn insert(&mut self, t: [u32; 3]) -> bool {
+        self.0.insert(sorted3(t))
     }
 
     /// Bytes held.
     #[must_use]
     pub fn bytes(&self) -> usize {
-        self.slots.capacity() * 12
+        self.0.slots.capacity() * 12
     }
 }
 
@@ -326,74 +373,24 @@ impl TripleSet {
 /// once only if their hashes collide, which for `n` triples has probability about
 /// `n²/2⁶⁵` (below 10⁻⁸ for a billion-triangle output). Only the ε search uses it.
 #[derive(Debug, Clone, Default)]
-pub(crate) struct KeyTriples {
-    slots: Vec<u64>,
-    mask: usize,
-    len: usize,
-}
+pub(crate) struct KeyTriples(OpenSet<u64>);
 
 impl KeyTriples {
     /// Empties the set, sized for about `expected` triples (the memory is reused).
     pub(crate) fn reset(&mut self, expected: usize) {
-        let n = (expected.max(8) * 2).next_power_of_two();
-        self.slots.clear();
-        self.slots.resize(n, 0);
-        self.mask = n - 1;
-        self.len = 0;
+        self.0.reset(expected);
     }
 
     /// Number of triples held.
     pub(crate) fn len(&self) -> usize {
-        self.len
+        self.0.len
     }
 
     /// Inserts the triple of keys `t` in any order; `true` when it is new.
     #[inline]
     pub(crate) fn insert(&mut self, t: [u64; 3]) -> bool {
-        let mut s = t;
-        if s[0] > s[1] {
-            s.swap(0, 1);
-        }
-        if s[1] > s[2] {
-            s.swap(1, 2);
-        }
-        if s[0] > s[1] {
-            s.swap(0, 1);
-        }
-        let h = mix(s[0] ^ mix(s[1] ^ mix(s[2]))).max(1);
-        self.insert_hash(h)
-    }
-
-    #[inline]
-    fn insert_hash(&mut self, h: u64) -> bool {
-        let mut i = (h >> 7) as usize & self.mask;
-        loop {
-            let slot = self.slots[i];
-            if slot == h {
-                return false;
-            }
-            if slot == 0 {
-                self.slots[i] = h;
-                self.len += 1;
-                if self.len * 2 > self.slots.len() {
-                    self.grow();
-                }
-                return true;
-            }
-            i = (i + 1) & self.mask;
-        }
-    }
-
-    fn grow(&mut self) {
-        let n = self.slots.len() * 2;
-        let old = std::mem::replace(&mut self.slots, vec![0; n]);
-        self.mask = n - 1;
-        self.len = 0;
-        for h in old {
-            if h != 0 {
-                self.insert_hash(h);
-            }
-        }
+        let s = sorted3(t);
+        self.0.insert(mix(s[0] ^ mix(s[1] ^ mix(s[2]))).max(1))
     }
 }
 

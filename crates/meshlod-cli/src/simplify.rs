@@ -514,15 +514,7 @@ impl Aggregate {
         if let Some(c) = &r.cluster {
             // Per-part clustering: the counts are summed in the first part's stats.
             match &mut self.cluster {
-                Some(a) => {
-                    a.non_manifold_edges += c.non_manifold_edges;
-                    a.non_manifold_vertices += c.non_manifold_vertices;
-                    a.boundary_edges += c.boundary_edges;
-                    a.collapsed_triangles += c.collapsed_triangles;
-                    a.duplicate_triangles += c.duplicate_triangles;
-                    a.flattened_triangles += c.flattened_triangles;
-                    a.max_error = a.max_error.max(c.max_error);
-                }
+                Some(a) => a.merge(c),
                 None => self.cluster = Some(c.clone()),
             }
         }

@@ -300,6 +300,24 @@ pub struct ClusterStats {
     pub working_bytes: usize,
 }
 
+impl ClusterStats {
+    /// Adds the counts of another run (e.g. another part of a scene): triangle,
+    /// edge and vertex counts and the working memory are summed, the error is the
+    /// larger one; the settings (representative, cell size, grid, passes) stay this
+    /// run's.
+    pub fn merge(&mut self, other: &Self) {
+        self.occupied_cells += other.occupied_cells;
+        self.collapsed_triangles += other.collapsed_triangles;
+        self.duplicate_triangles += other.duplicate_triangles;
+        self.flattened_triangles += other.flattened_triangles;
+        self.max_error = self.max_error.max(other.max_error);
+        self.non_manifold_edges += other.non_manifold_edges;
+        self.non_manifold_vertices += other.non_manifold_vertices;
+        self.boundary_edges += other.boundary_edges;
+        self.working_bytes += other.working_bytes;
+    }
+}
+
 /// The result of clustering.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Clustered {

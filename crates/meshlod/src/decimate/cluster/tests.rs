@@ -402,3 +402,22 @@ proptest! {
         }
     }
 }
+
+/// Merging the stats of two parts sums their counts, keeps the larger error and the
+/// first part's settings.
+#[test]
+fn stats_merge_sums_counts() {
+    let a = cluster(&generate::torus(64, 32, 1.0, 0.3), 200).stats;
+    let b = cluster(&generate::icosphere(3), 100).stats;
+    let mut m = a.clone();
+    m.merge(&b);
+    assert_eq!(m.occupied_cells, a.occupied_cells + b.occupied_cells);
+    assert_eq!(
+        m.collapsed_triangles,
+        a.collapsed_triangles + b.collapsed_triangles
+    );
+    assert_eq!(m.boundary_edges, a.boundary_edges + b.boundary_edges);
+    assert_eq!(m.working_bytes, a.working_bytes + b.working_bytes);
+    assert_eq!(m.max_error, a.max_error.max(b.max_error));
+    assert_eq!((m.grid, m.cell_size), (a.grid, a.cell_size));
+}

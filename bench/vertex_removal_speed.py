@@ -16,19 +16,14 @@ import argparse, json, os, subprocess, sys, tempfile, time
 import vtk
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from vertex_removal_vs_vtk import read_vtk  # noqa: E402  (same reading and welding)
+from vertex_removal_vs_vtk import decpro_timed, read_vtk  # noqa: E402  (same VTK setup)
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
 
 def vtk_time(poly, ratio, preserve):
-    f = vtk.vtkDecimatePro()
-    f.SetInputData(poly)
-    f.SetTargetReduction(1.0 - ratio)
-    f.SetPreserveTopology(1 if preserve else 0)
-    t0 = time.perf_counter()
-    f.Update()
-    return time.perf_counter() - t0, f.GetOutput().GetNumberOfPolys()
+    f, dt = decpro_timed(poly, ratio, preserve)
+    return dt, f.GetOutput().GetNumberOfPolys()
 
 
 def ours_time(binary, path, target, out):

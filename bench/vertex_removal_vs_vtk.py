@@ -47,14 +47,20 @@ def read_vtk(path):
     return clean.GetOutput()
 
 
-def vtk_decpro(poly, ratio, preserve, out_path):
+def decpro_timed(poly, ratio, preserve):
+    """vtkDecimatePro to `ratio` of the triangles (defaults otherwise), run; returns
+    the filter and the seconds of its Update() alone."""
     f = vtk.vtkDecimatePro()
     f.SetInputData(poly)
     f.SetTargetReduction(1.0 - ratio)
     f.SetPreserveTopology(1 if preserve else 0)
     t0 = time.perf_counter()
     f.Update()
-    dt = time.perf_counter() - t0
+    return f, time.perf_counter() - t0
+
+
+def vtk_decpro(poly, ratio, preserve, out_path):
+    f, dt = decpro_timed(poly, ratio, preserve)
     w = vtk.vtkPLYWriter()
     w.SetFileName(out_path)
     w.SetInputData(f.GetOutput())

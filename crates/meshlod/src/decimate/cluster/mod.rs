@@ -103,7 +103,7 @@ use crate::io::stream;
 use crate::io::IoError;
 use crate::mesh::{Mesh, Weld};
 use crate::simplify::Distance;
-use accumulate::{contribute, prepare_block, representative, Acc, Prepared, BLOCK};
+use accumulate::{add_triangle, prepare_block, representative, Acc, Prepared, BLOCK, MIN_WEIGHT};
 use grid::KeyTriples;
 pub use grid::{CellTable, Grid, TripleSet, MAX_CELLS_PER_AXIS};
 use rayon::prelude::*;
@@ -566,6 +566,8 @@ pub fn cluster_mesh(
         keys: Vec::new(),
         keys_cell: f64::NAN,
         triples: KeyTriples::default(),
+        distinct: Vec::new(),
+        distinct_cell: f64::NAN,
     };
     let (mut out, search_passes, builds) =
         drive(lo, hi, diag, target, options, area, &mut pipeline);
@@ -852,46 +854,60 @@ const PAR_MIN: usize = 1 << 15;
 
 /// Triangles whose three corner keys differ, copies over the same three keys counted
 /// once. The distinct-key test is parallel for large inputs; the set is filled in
-/// order.
+/// order. With `record`, the indices of the triangles with three distinct keys are
+/// written there, in order (duplicates included).
 fn count_distinct(
     n: usize,
     keys_of: impl Fn(usize) -> [u64; 3] + Sync,
     set: &mut KeyTriples,
     goal: usize,
+    mut record: Option<&mut Vec<u32>>,
 ) -> usize {
     set.reset(goal + goal / 4);
+    if let Some(r) = record.as_deref_mut() {
+        r.clear();
+    }
     let distinct = |k: &[u64; 3]| (k[0] != k[1]) & (k[1] != k[2]) & (k[0] != k[2]);
     if n < 8 * PAR_MIN || rayon::current_num_threads() == 1 {
         // Without a branch per triangle: every triangle is written to the buffer,
         // which only advances past the distinct ones.
         let mut buf = [[0u64; 3]; 256];
+        let mut idx = [0u32; 256];
         let mut m = 0;
+        let mut flush = |buf: &[[u64; 3]], idx: &[u32]| {
+            for k in buf {
+                set.insert(*k);
+            }
+            if let Some(r) = record.as_deref_mut() {
+                r.extend_from_slice(idx);
+            }
+        };
         for t in 0..n {
             let k = keys_of(t);
             buf[m] = k;
+            idx[m] = t as u32;
             m += usize::from(distinct(&k));
             if m == buf.len() {
-                for k in &buf {
-                    set.insert(*k);
-                }
+                flush(&buf, &idx);
                 m = 0;
             }
         }
-        for k in &buf[..m] {
-            set.insert(*k);
-        }
+        flush(&buf[..m], &idx[..m]);
     } else {
-        let chunks: Vec<Vec<[u64; 3]>> = (0..n.div_ceil(PAR_MIN))
+        let chunks: Vec<Vec<(u32, [u64; 3])>> = (0..n.div_ceil(PAR_MIN))
             .into_par_iter()
             .map(|c| {
                 (c * PAR_MIN..((c + 1) * PAR_MIN).min(n))
-                    .map(&keys_of)
-                    .filter(distinct)
+                    .map(|t| (t as u32, keys_of(t)))
+                    .filter(|(_, k)| distinct(k))
                     .collect()
             })
             .collect();
-        for k in chunks.into_iter().flatten() {
+        for (t, k) in chunks.into_iter().flatten() {
             set.insert(k);
+            if let Some(r) = record.as_deref_mut() {
+                r.push(t);
+            }
         }
     }
     set.len()
@@ -974,6 +990,10 @@ struct InMemory<'a> {
     keys: Vec<u64>,
     keys_cell: f64,
     triples: KeyTriples,
+    /// The triangles with three distinct cells on the grid of side `distinct_cell`
+    /// (the last probe's), in order.
+    distinct: Vec<u32>,
+    distinct_cell: f64,
 }
 
 /// An in-memory first stage.
@@ -1007,12 +1027,15 @@ impl Pipeline for InMemory<'_> {
     fn count(&mut self, grid: &Grid, goal: usize) -> usize {
         self.keys_for(grid);
         let (tris, keys) = (&self.mesh.triangles, &self.keys);
-        count_distinct(
+        let c = count_distinct(
             tris.len(),
             |t| tris[t].map(|v| keys[v as usize]),
             &mut self.triples,
             goal,
-        )
+            Some(&mut self.distinct),
+        );
+        self.distinct_cell = grid.cell;
+        c
     }
 
     fn stage(&mut self, grid: &Grid, expect: usize) -> (MemStaged, usize) {
@@ -1030,13 +1053,18 @@ impl Pipeline for InMemory<'_> {
         let mut table = CellTable::for_grid(grid, expected_cells(expect), dense_limit);
         let vcell: Vec<u32> = self.keys.iter().map(|&k| table.id(k)).collect();
         let (mut stage1, mut set) = Stage1::new(expect);
-        for (t, tri) in mesh.triangles.iter().enumerate() {
-            let c = [
-                vcell[tri[0] as usize],
-                vcell[tri[1] as usize],
-                vcell[tri[2] as usize],
-            ];
-            stage1.push(&mut set, c, mesh.group(t));
+        let cells_of = |t: usize| mesh.triangles[t].map(|v| vcell[v as usize]);
+        if self.distinct_cell.to_bits() == grid.cell.to_bits() {
+            // The last probe was on this grid: only its triangles with three distinct
+            // cells (distinct keys are distinct ids) can be kept.
+            for &t in &self.distinct {
+                stage1.push(&mut set, cells_of(t as usize), mesh.group(t as usize));
+            }
+            stage1.collapsed = mesh.triangles.len() - self.distinct.len();
+        } else {
+            for t in 0..mesh.triangles.len() {
+                stage1.push(&mut set, cells_of(t), mesh.group(t));
+            }
         }
         let got = stage1.cells.len();
         (
@@ -1062,53 +1090,21 @@ impl Pipeline for InMemory<'_> {
         let factors = self.factors.as_deref();
         let cells = table.len();
         let mut accs = vec![Acc::default(); cells];
-        let quadric = how == Representative::Quadric;
         let grid = &grid;
-        let corners: Vec<[f64; 3]> = table
-            .keys()
-            .iter()
-            .map(|&k| grid.corner(grid::unpack(k)))
-            .collect();
-        let corners = &corners[..];
         let vcell_ref = &vcell;
         // Workers own contiguous ranges of cells; each scans the triangles in order, so
         // every cell adds its contributions in input order (as the streaming path).
         // Triangles go in blocks: the planes of a block are computed in one tight loop
         // (square roots and divisions overlap), then added to the cells in order.
-        let accumulate = |part: &mut [Acc], start: u32| {
-            let len = part.len() as u32;
-            let owned = |c: u32| c.wrapping_sub(start) < len;
-            let mut which = [0u32; BLOCK];
-            let mut cells_of = [[0u32; 3]; BLOCK];
-            let mut planes = [Prepared::ZERO; BLOCK];
-            for first in (0..mesh.triangles.len()).step_by(BLOCK) {
-                let last = (first + BLOCK).min(mesh.triangles.len());
-                let mut m = 0;
-                for t in first..last {
-                    let tri = &mesh.triangles[t];
-                    let c = tri.map(|v| vcell_ref[v as usize]);
-                    which[m] = t as u32;
-                    cells_of[m] = c;
-                    m += usize::from(owned(c[0]) | owned(c[1]) | owned(c[2]));
-                }
-                prepare_block(
-                    m,
-                    |i| mesh.triangles[which[i] as usize].map(|v| mesh.positions[v as usize]),
-                    grid.origin,
-                    &mut planes,
-                );
-                for ((plane, &t), &c) in planes.iter().zip(&which[..m]).zip(&cells_of[..m]) {
-                    let tri = &mesh.triangles[t as usize];
-                    let w = corner_weights(plane, how, |k| {
-                        factors.map_or(1.0, |f| f64::from(f[tri[k] as usize]))
-                    });
-                    add_to_cells(plane, c, w, quadric, corners, part, start);
-                }
-            }
+        let accumulate = |part: &mut [Acc], start: u32| match how {
+            Representative::Quadric => accumulate_part::<true>(
+                mesh, vcell_ref, grid.origin, how, None, part, start,
+            ),
+            _ => accumulate_part::<false>(mesh, vcell_ref, grid.origin, how, factors, part, start),
         };
         let shards = rayon::current_num_threads().clamp(1, 64);
         // Every worker scans all triangles: worth it on large inputs only.
-        if shards == 1 || mesh.triangles.len() < 8 * PAR_MIN {
+        if shards == 1 || mesh.triangles.len() < PAR_ACCUMULATE {
             accumulate(&mut accs, 0);
         } else {
             let per = cells.div_ceil(shards).max(1);
@@ -1162,6 +1158,53 @@ impl Pipeline for InMemory<'_> {
     }
 }
 
+/// Inputs from this many triangles accumulate in parallel (over ranges of cells).
+const PAR_ACCUMULATE: usize = 8 * PAR_MIN;
+
+/// Adds every triangle of `mesh` (in order) to the cells `start .. start +
+/// part.len()` it touches, `vcell` the cell of every vertex. Triangles whose cells
+/// are all outside the range are skipped before their planes are computed.
+#[allow(clippy::too_many_arguments)]
+fn accumulate_part<const QUADRIC: bool>(
+    mesh: &Mesh,
+    vcell: &[u32],
+    origin: [f64; 3],
+    how: Representative,
+    factors: Option<&[f32]>,
+    part: &mut [Acc],
+    start: u32,
+) {
+    let len = part.len() as u32;
+    let owned = |c: u32| c.wrapping_sub(start) < len;
+    let mut which = [0u32; BLOCK];
+    let mut cells_of = [[0u32; 3]; BLOCK];
+    let mut planes = [Prepared::ZERO; BLOCK];
+    let n = mesh.triangles.len();
+    for first in (0..n).step_by(BLOCK) {
+        let last = (first + BLOCK).min(n);
+        let mut m = 0;
+        for t in first..last {
+            let tri = &mesh.triangles[t];
+            let c = tri.map(|v| vcell[v as usize]);
+            which[m] = t as u32;
+            cells_of[m] = c;
+            m += usize::from(owned(c[0]) | owned(c[1]) | owned(c[2]));
+        }
+        prepare_block(
+            m,
+            |i| mesh.triangles[which[i] as usize].map(|v| mesh.positions[v as usize]),
+            origin,
+            &mut planes,
+        );
+        for ((plane, &t), &c) in planes.iter().zip(&which[..m]).zip(&cells_of[..m]) {
+            let w = corner_weights(plane, how, |k| {
+                factors.map_or(1.0, |f| f64::from(f[mesh.triangles[t as usize][k] as usize]))
+            });
+            add_triangle::<QUADRIC>(part, start, c, plane, w);
+        }
+    }
+}
+
 /// The streaming pipeline: probes on the sample, and every first stage is a whole
 /// build over the file (the second pass).
 struct Streamed<'a> {
@@ -1186,6 +1229,7 @@ impl Pipeline for Streamed<'_> {
             |t| tris[t].map(|p| grid.key(p)),
             &mut self.triples,
             sample_goal,
+            None,
         );
         (c as f64 * self.scale).round() as usize
     }
@@ -1226,22 +1270,23 @@ fn build_streamed(
     let cells = expected_cells(expect);
     let mut table = CellTable::for_grid(grid, cells, (16 * cells).max(1 << 16));
     let mut accs: Vec<Acc> = Vec::with_capacity(cells);
-    let mut corners: Vec<[f64; 3]> = Vec::with_capacity(cells);
     let (mut stage1, mut set) = Stage1::new(expect);
     let s = stream::for_each_triangle(path, |tri, group| {
         let c = tri.map(|p| {
-            let key = grid.key(p);
-            let id = table.id(key);
+            let id = table.id(grid.key(p));
             if id as usize == accs.len() {
                 accs.push(Acc::default());
-                corners.push(grid.corner(grid::unpack(key)));
             }
             id
         });
         stage1.push(&mut set, c, group);
         let t = Prepared::new(tri, grid.origin);
         let w = corner_weights(&t, how, |_| 1.0);
-        add_to_cells(&t, c, w, quadric, &corners, &mut accs, 0);
+        if quadric {
+            add_triangle::<true>(&mut accs, 0, c, &t, w);
+        } else {
+            add_triangle::<false>(&mut accs, 0, c, &t, w);
+        }
     })?;
     let set_bytes = set.bytes();
     drop(set);
@@ -1261,47 +1306,15 @@ fn build_streamed(
     ))
 }
 
-/// Corner weights of the representative's mean.
-#[inline]
+/// Corner weights of the representative's mean (at least [`MIN_WEIGHT`], so that
+/// a cell of zero-weight corners gets their plain mean).
+#[inline(always)]
 fn corner_weights(t: &Prepared, how: Representative, factor: impl Fn(usize) -> f64) -> [f64; 3] {
     match how {
         Representative::Average => [1.0; 3],
         // The mean is Σ wᵢ pᵢ / Σ wᵢ: the common factor 1/3 of `Aₜ/3` cancels.
-        Representative::Quadric => [t.area; 3],
-        Representative::Weighted => std::array::from_fn(|k| t.area * factor(k)),
-    }
-}
-
-/// Adds triangle `t` with corner cells `c` to each distinct cell among
-/// `start .. start + accs.len()` (the in-memory workers own a range of cells).
-#[inline(always)]
-#[allow(clippy::too_many_arguments)]
-fn add_to_cells(
-    t: &Prepared,
-    c: [u32; 3],
-    w: [f64; 3],
-    quadric: bool,
-    corners: &[[f64; 3]],
-    accs: &mut [Acc],
-    start: u32,
-) {
-    if c[0] == c[1] && c[1] == c[2] {
-        if let Some(a) = accs.get_mut(c[0].wrapping_sub(start) as usize) {
-            contribute(a, corners[c[0] as usize], t, [true; 3], w, quadric);
-        }
-        return;
-    }
-    for k in 0..3 {
-        if (k >= 1 && c[k] == c[0]) || (k == 2 && c[2] == c[1]) {
-            continue;
-        }
-        if let Some(a) = c[k]
-            .checked_sub(start)
-            .and_then(|i| accs.get_mut(i as usize))
-        {
-            let mask = [c[0] == c[k], c[1] == c[k], c[2] == c[k]];
-            contribute(a, corners[c[k] as usize], t, mask, w, quadric);
-        }
+        Representative::Quadric => [t.area.max(MIN_WEIGHT); 3],
+        Representative::Weighted => std::array::from_fn(|k| (t.area * factor(k)).max(MIN_WEIGHT)),
     }
 }
 
@@ -1400,7 +1413,7 @@ fn finish(
             representative: how,
             cell_size: grid.cell,
             grid: grid.dims,
-            occupied_cells: accs.iter().filter(|a| a.n > 0.0).count(),
+            occupied_cells: accs.iter().filter(|a| a.w > 0.0).count(),
             search_passes: 0,
             builds: 1,
             collapsed_triangles: stage1.collapsed,

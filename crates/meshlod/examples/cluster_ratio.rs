@@ -54,6 +54,39 @@ fn ours(m: &Mesh, ratio: f64) -> Mesh {
 }
 
 fn main() {
+    if let Ok(p) = std::env::var("MESHLOD_WRITE") {
+        // mesh:ratio:dir — write meshopt's result, ours at the target and ours at
+        // meshopt's triangle count, as PLY, for `meshlod measure`.
+        let v: Vec<&str> = p.split(':').collect();
+        let m = load(v[0]);
+        let ratio: f64 = v[1].parse().unwrap();
+        let dir = Path::new(v[2]);
+        let (indices, bytes) = welded(&m);
+        let adapter = meshopt::VertexDataAdapter::new(&bytes, 12, 0).unwrap();
+        let target = (m.triangles.len() as f64 * ratio).round() as usize;
+        let r = meshopt::simplify_sloppy(&indices, &adapter, target * 3, 1.0, None);
+        let weld = Weld::exact(&m.positions);
+        let positions = weld
+            .representative
+            .iter()
+            .map(|&v| m.positions[v as usize])
+            .collect();
+        let tris: Vec<[u32; 3]> = r.chunks_exact(3).map(|t| [t[0], t[1], t[2]]).collect();
+        let n = tris.len();
+        let mut mo = Mesh::from_triangles(positions, tris);
+        mo.compact_vertices();
+        let w = meshlod::io::WriteOptions::default();
+        let name = format!("{}_{}", v[0], v[1]);
+        meshlod::write_mesh(dir.join(format!("{name}_meshopt.ply")), &mo, &w).unwrap();
+        meshlod::write_mesh(dir.join(format!("{name}_ours.ply")), &ours(&m, ratio), &w).unwrap();
+        let o = SimplifyOptions::default()
+            .with_method(Method::Cluster)
+            .with_target_triangles(n);
+        let at = simplify(&m, &o).expect("valid").0;
+        println!("{name}: meshopt {n}, ours at that count {}", at.triangles.len());
+        meshlod::write_mesh(dir.join(format!("{name}_ours_at.ply")), &at, &w).unwrap();
+        return;
+    }
     if let Ok(p) = std::env::var("MESHLOD_PROFILE") {
         let v: Vec<&str> = p.split(':').collect();
         let m = load(v[0]);

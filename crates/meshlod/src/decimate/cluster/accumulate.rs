@@ -298,6 +298,9 @@ fn pseudo_inverse_minimum(q: &Quadric, c: [f64; 3]) -> [f64; 3] {
     let r: [f64; 3] = std::array::from_fn(|i| {
         a[i][0] * c[0] + a[i][1] * c[1] + a[i][2] * c[2] + [m[3], m[6], m[8]][i]
     });
+    if let Some(x) = rank_one_minimum(&a, r, c) {
+        return x;
+    }
     let (values, vectors) = eigen_symmetric(a);
     let top = values.iter().fold(0.0f64, |acc, &v| acc.max(v.abs()));
     if !(top > 0.0 && top.is_finite()) {
@@ -318,6 +321,53 @@ fn pseudo_inverse_minimum(q: &Quadric, c: [f64; 3]) -> [f64; 3] {
     } else {
         c
     }
+}
+
+/// The pseudo-inverse minimum `c − (v·r/λ) v` when the positive semi-definite `a`
+/// has a single eigenvalue above `10⁻³` of the largest (a flat cell, the common
+/// case), `None` otherwise (or when unsure). `λ`, `v` come from a few power
+/// iterations, which converge at the rate `λ₂/λ₁ < 10⁻³`; the test is on the
+/// remaining trace, `λ₂ + λ₃ = tr − λ₁ ≤ 0.9·10⁻³ λ₁` (bounds `λ₂`, with a margin
+/// for the iteration's error), so a cell near the threshold takes the full
+/// eigen-decomposition.
+fn rank_one_minimum(a: &[[f64; 3]; 3], r: [f64; 3], c: [f64; 3]) -> Option<[f64; 3]> {
+    let trace = a[0][0] + a[1][1] + a[2][2];
+    if !(trace > 0.0 && trace.is_finite()) {
+        return None;
+    }
+    // Start from the column of the largest diagonal entry: its component along the
+    // top eigenvector is λ₁ v_k with v_k² λ₁ ≥ a_kk − (λ₂ + λ₃) > 0 in the flat case.
+    let k = if a[0][0] >= a[1][1] && a[0][0] >= a[2][2] {
+        0
+    } else if a[1][1] >= a[2][2] {
+        1
+    } else {
+        2
+    };
+    let mut v = [a[0][k], a[1][k], a[2][k]];
+    let mul = |v: [f64; 3]| -> [f64; 3] {
+        std::array::from_fn(|i| a[i][0] * v[0] + a[i][1] * v[1] + a[i][2] * v[2])
+    };
+    for _ in 0..4 {
+        let n = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
+        if !(n > 0.0 && n.is_finite()) {
+            return None;
+        }
+        v = mul(v.map(|x| x / n));
+    }
+    let n = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
+    if !(n > 0.0 && n.is_finite()) {
+        return None;
+    }
+    let v = v.map(|x| x / n);
+    let av = mul(v);
+    let lambda = v[0] * av[0] + v[1] * av[1] + v[2] * av[2];
+    if !(lambda > 0.0) || trace - lambda > 0.9e-3 * lambda {
+        return None;
+    }
+    let s = (v[0] * r[0] + v[1] * r[1] + v[2] * r[2]) / lambda;
+    let x = [c[0] - s * v[0], c[1] - s * v[1], c[2] - s * v[2]];
+    x.iter().all(|v| v.is_finite()).then_some(x)
 }
 
 /// Eigenvalues and eigenvectors (columns of the returned matrix) of a symmetric 3×3
@@ -386,6 +436,39 @@ mod tests {
         }
         let trace: f64 = l.iter().sum();
         assert!((trace - 12.0).abs() < 1e-9);
+    }
+
+    /// The power-iteration shortcut gives the full decomposition's point on nearly
+    /// flat cells and declines otherwise.
+    #[test]
+    fn rank_one_shortcut_matches_jacobi() {
+        let n = [0.36f64, 0.48, 0.8];
+        let u = [0.8f64, -0.6, 0.0];
+        let r = [0.3, -0.2, 0.5];
+        let c = [0.1, 0.2, 0.3];
+        for (small, expect) in [(0.0, true), (1e-4, true), (5e-3, false), (0.3, false)] {
+            let a: [[f64; 3]; 3] =
+                std::array::from_fn(|i| std::array::from_fn(|j| n[i] * n[j] + small * u[i] * u[j]));
+            let fast = rank_one_minimum(&a, r, c);
+            assert_eq!(fast.is_some(), expect, "{small}");
+            if let Some(x) = fast {
+                let (values, vectors) = eigen_symmetric(a);
+                let top = values.iter().fold(0.0f64, |m, &v| m.max(v));
+                let mut y = c;
+                for (i, &l) in values.iter().enumerate() {
+                    if l > 1e-3 * top {
+                        let v = [vectors[0][i], vectors[1][i], vectors[2][i]];
+                        let s = (v[0] * r[0] + v[1] * r[1] + v[2] * r[2]) / l;
+                        for k in 0..3 {
+                            y[k] -= s * v[k];
+                        }
+                    }
+                }
+                for k in 0..3 {
+                    assert!((x[k] - y[k]).abs() < 1e-9, "{x:?} vs {y:?}");
+                }
+            }
+        }
     }
 
     /// A flat cell (all triangles in the plane z = 0.3 of a unit cell): the quadric is

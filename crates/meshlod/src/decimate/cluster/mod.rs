@@ -1096,11 +1096,22 @@ impl Pipeline for InMemory<'_> {
         // every cell adds its contributions in input order (as the streaming path).
         // Triangles go in blocks: the planes of a block are computed in one tight loop
         // (square roots and divisions overlap), then added to the cells in order.
-        let accumulate = |part: &mut [Acc], start: u32| match how {
-            Representative::Quadric => accumulate_part::<true>(
-                mesh, vcell_ref, grid.origin, how, None, part, start,
-            ),
-            _ => accumulate_part::<false>(mesh, vcell_ref, grid.origin, how, factors, part, start),
+        // The vertices some triangle uses (for the attributes below), marked by the
+        // worker that owns cell 0 (every worker scans all triangles).
+        let mut used = vec![false; mesh.positions.len()];
+        let used_ref = std::sync::Mutex::new(Some(&mut used[..]));
+        let accumulate = |part: &mut [Acc], start: u32| {
+            let mut guard = used_ref.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+            let used = if start == 0 { guard.take() } else { None };
+            drop(guard);
+            match how {
+                Representative::Quadric => accumulate_part::<true>(
+                    mesh, vcell_ref, grid.origin, how, None, part, start, used,
+                ),
+                _ => accumulate_part::<false>(
+                    mesh, vcell_ref, grid.origin, how, factors, part, start, used,
+                ),
+            }
         };
         let shards = rayon::current_num_threads().clamp(1, 64);
         // Every worker scans all triangles: worth it on large inputs only.
@@ -1112,17 +1123,12 @@ impl Pipeline for InMemory<'_> {
                 .enumerate()
                 .for_each(|(s, part)| accumulate(part, (s * per) as u32));
         }
+        drop(used_ref);
         let mut out = finish(grid, &table, &accs, stage1, how, mesh.group_names.clone());
         // Attributes: per output vertex the closest input vertex of its cells (that a
         // triangle uses).
         let n_out = out.mesh.positions.len();
         let mut best = vec![(f64::INFINITY, u32::MAX); n_out];
-        let mut used = vec![false; mesh.positions.len()];
-        for tri in &mesh.triangles {
-            for &v in tri {
-                used[v as usize] = true;
-            }
-        }
         for (v, &c) in vcell.iter().enumerate() {
             if !used[v] {
                 continue;
@@ -1163,7 +1169,8 @@ const PAR_ACCUMULATE: usize = 8 * PAR_MIN;
 
 /// Adds every triangle of `mesh` (in order) to the cells `start .. start +
 /// part.len()` it touches, `vcell` the cell of every vertex. Triangles whose cells
-/// are all outside the range are skipped before their planes are computed.
+/// are all outside the range are skipped before their planes are computed. With
+/// `used`, marks there every vertex a triangle uses.
 #[allow(clippy::too_many_arguments)]
 fn accumulate_part<const QUADRIC: bool>(
     mesh: &Mesh,
@@ -1173,6 +1180,7 @@ fn accumulate_part<const QUADRIC: bool>(
     factors: Option<&[f32]>,
     part: &mut [Acc],
     start: u32,
+    mut used: Option<&mut [bool]>,
 ) {
     let len = part.len() as u32;
     let owned = |c: u32| c.wrapping_sub(start) < len;
@@ -1186,6 +1194,11 @@ fn accumulate_part<const QUADRIC: bool>(
         for t in first..last {
             let tri = &mesh.triangles[t];
             let c = tri.map(|v| vcell[v as usize]);
+            if let Some(u) = used.as_deref_mut() {
+                for &v in tri {
+                    u[v as usize] = true;
+                }
+            }
             which[m] = t as u32;
             cells_of[m] = c;
             m += usize::from(owned(c[0]) | owned(c[1]) | owned(c[2]));

@@ -298,7 +298,7 @@ fn pseudo_inverse_minimum(q: &Quadric, c: [f64; 3]) -> [f64; 3] {
     let r: [f64; 3] = std::array::from_fn(|i| {
         a[i][0] * c[0] + a[i][1] * c[1] + a[i][2] * c[2] + [m[3], m[6], m[8]][i]
     });
-    if let Some(x) = rank_one_minimum(&a, r, c) {
+    if let Some(x) = closed_form_minimum(&a, r, c) {
         return x;
     }
     let (values, vectors) = eigen_symmetric(a);
@@ -323,50 +323,114 @@ fn pseudo_inverse_minimum(q: &Quadric, c: [f64; 3]) -> [f64; 3] {
     }
 }
 
-/// The pseudo-inverse minimum `c − (v·r/λ) v` when the positive semi-definite `a`
-/// has a single eigenvalue above `10⁻³` of the largest (a flat cell, the common
-/// case), `None` otherwise (or when unsure). `λ`, `v` come from a few power
-/// iterations, which converge at the rate `λ₂/λ₁ < 10⁻³`; the test is on the
-/// remaining trace, `λ₂ + λ₃ = tr − λ₁ ≤ 0.9·10⁻³ λ₁` (bounds `λ₂`, with a margin
-/// for the iteration's error), so a cell near the threshold takes the full
-/// eigen-decomposition.
-fn rank_one_minimum(a: &[[f64; 3]; 3], r: [f64; 3], c: [f64; 3]) -> Option<[f64; 3]> {
-    let trace = a[0][0] + a[1][1] + a[2][2];
-    if !(trace > 0.0 && trace.is_finite()) {
+#[inline]
+fn dot(u: [f64; 3], v: [f64; 3]) -> f64 {
+    u[0] * v[0] + u[1] * v[1] + u[2] * v[2]
+}
+
+#[inline]
+fn cross3(u: [f64; 3], v: [f64; 3]) -> [f64; 3] {
+    [
+        u[1] * v[2] - u[2] * v[1],
+        u[2] * v[0] - u[0] * v[2],
+        u[0] * v[1] - u[1] * v[0],
+    ]
+}
+
+/// The eigenvalues of the symmetric `a`, largest first, in closed form (the
+/// trigonometric solution of the characteristic cubic, Smith 1961); absolute error
+/// about `10⁻¹⁵` of the largest.
+fn eigenvalues(a: &[[f64; 3]; 3]) -> Option<[f64; 3]> {
+    let p1 = a[0][1] * a[0][1] + a[0][2] * a[0][2] + a[1][2] * a[1][2];
+    let q = (a[0][0] + a[1][1] + a[2][2]) / 3.0;
+    let d = [a[0][0] - q, a[1][1] - q, a[2][2] - q];
+    let p2 = d[0] * d[0] + d[1] * d[1] + d[2] * d[2] + 2.0 * p1;
+    if !(p2.is_finite() && q.is_finite()) {
         return None;
     }
-    // Start from the column of the largest diagonal entry: its component along the
-    // top eigenvector is λ₁ v_k with v_k² λ₁ ≥ a_kk − (λ₂ + λ₃) > 0 in the flat case.
-    let k = if a[0][0] >= a[1][1] && a[0][0] >= a[2][2] {
-        0
-    } else if a[1][1] >= a[2][2] {
-        1
-    } else {
-        2
+    if p2 == 0.0 {
+        return Some([q; 3]);
+    }
+    let p = (p2 / 6.0).sqrt();
+    let b = [
+        [d[0] / p, a[0][1] / p, a[0][2] / p],
+        [a[1][0] / p, d[1] / p, a[1][2] / p],
+        [a[2][0] / p, a[2][1] / p, d[2] / p],
+    ];
+    let r = (0.5 * dot(b[0], cross3(b[1], b[2]))).clamp(-1.0, 1.0);
+    let phi = r.acos() / 3.0;
+    let l1 = q + 2.0 * p * phi.cos();
+    let l3 = q + 2.0 * p * (phi + 2.0 * std::f64::consts::FRAC_PI_3).cos();
+    Some([l1, 3.0 * q - l1 - l3, l3])
+}
+
+/// A unit vector spanning the null space of `a − λ I` for a simple eigenvalue `λ`:
+/// the largest cross product of two of its rows.
+fn eigenvector(a: &[[f64; 3]; 3], l: f64) -> Option<[f64; 3]> {
+    let row = |i: usize| -> [f64; 3] {
+        std::array::from_fn(|j| a[i][j] - if i == j { l } else { 0.0 })
     };
-    let mut v = [a[0][k], a[1][k], a[2][k]];
-    let mul = |v: [f64; 3]| -> [f64; 3] {
-        std::array::from_fn(|i| a[i][0] * v[0] + a[i][1] * v[1] + a[i][2] * v[2])
-    };
-    for _ in 0..4 {
-        let n = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
-        if !(n > 0.0 && n.is_finite()) {
+    let (r0, r1, r2) = (row(0), row(1), row(2));
+    let mut best = cross3(r0, r1);
+    for x in [cross3(r0, r2), cross3(r1, r2)] {
+        if dot(x, x) > dot(best, best) {
+            best = x;
+        }
+    }
+    let n = dot(best, best).sqrt();
+    (n > 0.0 && n.is_finite()).then(|| best.map(|x| x / n))
+}
+
+/// `m⁻¹ v` by Cramer's rule (`None` for a zero or non-finite determinant).
+fn solve3(m: &[[f64; 3]; 3], v: [f64; 3]) -> Option<[f64; 3]> {
+    let det = dot(m[0], cross3(m[1], m[2]));
+    if !(det != 0.0 && det.is_finite()) {
+        return None;
+    }
+    let col = |i: usize| -> [f64; 3] { [m[0][i], m[1][i], m[2][i]] };
+    let (c0, c1, c2) = (col(0), col(1), col(2));
+    Some([
+        dot(v, cross3(c1, c2)) / det,
+        dot(c0, cross3(v, c2)) / det,
+        dot(c0, cross3(c1, v)) / det,
+    ])
+}
+
+/// [`pseudo_inverse_minimum`] without iterations, `x = c − A⁺ r`: eigenvalues in
+/// closed form, then
+/// - all three above the threshold: `A⁻¹ r`;
+/// - two: with `v₃` the small eigenvector, `A⁺ r` solves
+///   `(A + (λ₁ − λ₃) v₃v₃ᵀ) y = r − v₃ (v₃·r)` (a system with eigenvalues λ₁, λ₂,
+///   λ₁);
+/// - one (a flat cell, the common case): `v₁ (v₁·r) / λ₁`.
+///
+/// `None` when an eigenvector would be ill-determined (two eigenvalues within 1%
+/// of each other across the threshold) or on non-finite values: the caller then
+/// uses the Jacobi decomposition.
+fn closed_form_minimum(a: &[[f64; 3]; 3], r: [f64; 3], c: [f64; 3]) -> Option<[f64; 3]> {
+    let [l1, l2, l3] = eigenvalues(a)?;
+    if !(l1 > 0.0 && l1.is_finite()) {
+        return None;
+    }
+    let t = 1e-3 * l1;
+    let y = if l3 > t {
+        solve3(a, r)?
+    } else if l2 > t {
+        if l2 - l3 < 1e-2 * l2 {
             return None;
         }
-        v = mul(v.map(|x| x / n));
-    }
-    let n = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
-    if !(n > 0.0 && n.is_finite()) {
-        return None;
-    }
-    let v = v.map(|x| x / n);
-    let av = mul(v);
-    let lambda = v[0] * av[0] + v[1] * av[1] + v[2] * av[2];
-    if !(lambda > 0.0) || trace - lambda > 0.9e-3 * lambda {
-        return None;
-    }
-    let s = (v[0] * r[0] + v[1] * r[1] + v[2] * r[2]) / lambda;
-    let x = [c[0] - s * v[0], c[1] - s * v[1], c[2] - s * v[2]];
+        let v3 = eigenvector(a, l3)?;
+        let k = l1 - l3;
+        let m: [[f64; 3]; 3] =
+            std::array::from_fn(|i| std::array::from_fn(|j| a[i][j] + k * v3[i] * v3[j]));
+        let vr = dot(v3, r);
+        solve3(&m, std::array::from_fn(|i| r[i] - vr * v3[i]))?
+    } else {
+        let v1 = eigenvector(a, l1)?;
+        let s = dot(v1, r) / l1;
+        v1.map(|x| s * x)
+    };
+    let x = [c[0] - y[0], c[1] - y[1], c[2] - y[2]];
     x.iter().all(|v| v.is_finite()).then_some(x)
 }
 
@@ -438,19 +502,32 @@ mod tests {
         assert!((trace - 12.0).abs() < 1e-9);
     }
 
-    /// The power-iteration shortcut gives the full decomposition's point on nearly
-    /// flat cells and declines otherwise.
+    /// The closed form gives the Jacobi decomposition's point for one, two and
+    /// three eigenvalues above the threshold, and declines where an eigenvector is
+    /// ill-determined.
     #[test]
-    fn rank_one_shortcut_matches_jacobi() {
+    fn closed_form_matches_jacobi() {
         let n = [0.36f64, 0.48, 0.8];
         let u = [0.8f64, -0.6, 0.0];
+        let w = cross3(n, u);
         let r = [0.3, -0.2, 0.5];
         let c = [0.1, 0.2, 0.3];
-        for (small, expect) in [(0.0, true), (1e-4, true), (5e-3, false), (0.3, false)] {
-            let a: [[f64; 3]; 3] =
-                std::array::from_fn(|i| std::array::from_fn(|j| n[i] * n[j] + small * u[i] * u[j]));
-            let fast = rank_one_minimum(&a, r, c);
-            assert_eq!(fast.is_some(), expect, "{small}");
+        for (l2, l3, expect) in [
+            (0.0, 0.0, true),
+            (1e-4, 0.0, true),
+            (1e-4, 1e-5, true),
+            (0.05, 0.0, true),
+            (0.3, 1e-5, true),
+            (0.01, 2e-4, true),
+            (0.5, 0.2, true),
+            (1.0, 1.0, true),
+            (1.0005e-3, 0.9995e-3, false),
+        ] {
+            let a: [[f64; 3]; 3] = std::array::from_fn(|i| {
+                std::array::from_fn(|j| n[i] * n[j] + l2 * u[i] * u[j] + l3 * w[i] * w[j])
+            });
+            let fast = closed_form_minimum(&a, r, c);
+            assert_eq!(fast.is_some(), expect, "{l2} {l3}");
             if let Some(x) = fast {
                 let (values, vectors) = eigen_symmetric(a);
                 let top = values.iter().fold(0.0f64, |m, &v| m.max(v));
@@ -465,7 +542,7 @@ mod tests {
                     }
                 }
                 for k in 0..3 {
-                    assert!((x[k] - y[k]).abs() < 1e-9, "{x:?} vs {y:?}");
+                    assert!((x[k] - y[k]).abs() < 1e-8, "{l2} {l3}: {x:?} vs {y:?}");
                 }
             }
         }

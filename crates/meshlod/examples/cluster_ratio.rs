@@ -83,7 +83,10 @@ fn main() {
             .with_method(Method::Cluster)
             .with_target_triangles(n);
         let at = simplify(&m, &o).expect("valid").0;
-        println!("{name}: meshopt {n}, ours at that count {}", at.triangles.len());
+        println!(
+            "{name}: meshopt {n}, ours at that count {}",
+            at.triangles.len()
+        );
         meshlod::write_mesh(dir.join(format!("{name}_ours_at.ply")), &at, &w).unwrap();
         return;
     }
@@ -92,13 +95,22 @@ fn main() {
         let m = load(v[0]);
         let ratio: f64 = v[1].parse().unwrap();
         let n: usize = v[2].parse().unwrap();
-        let pool = rayon::ThreadPoolBuilder::new().num_threads(1).build().unwrap();
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(1)
+            .build()
+            .unwrap();
         if v.get(3) == Some(&"meshopt") {
             let (indices, bytes) = welded(&m);
             let adapter = meshopt::VertexDataAdapter::new(&bytes, 12, 0).unwrap();
             let target = (m.triangles.len() as f64 * ratio).round() as usize;
             for _ in 0..n {
-                black_box(meshopt::simplify_sloppy(&indices, &adapter, target * 3, 1.0, None));
+                black_box(meshopt::simplify_sloppy(
+                    &indices,
+                    &adapter,
+                    target * 3,
+                    1.0,
+                    None,
+                ));
             }
             return;
         }

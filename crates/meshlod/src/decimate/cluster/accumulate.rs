@@ -367,9 +367,8 @@ fn eigenvalues(a: &[[f64; 3]; 3]) -> Option<[f64; 3]> {
 /// A unit vector spanning the null space of `a − λ I` for a simple eigenvalue `λ`:
 /// the largest cross product of two of its rows.
 fn eigenvector(a: &[[f64; 3]; 3], l: f64) -> Option<[f64; 3]> {
-    let row = |i: usize| -> [f64; 3] {
-        std::array::from_fn(|j| a[i][j] - if i == j { l } else { 0.0 })
-    };
+    let row =
+        |i: usize| -> [f64; 3] { std::array::from_fn(|j| a[i][j] - if i == j { l } else { 0.0 }) };
     let (r0, r1, r2) = (row(0), row(1), row(2));
     let mut best = cross3(r0, r1);
     for x in [cross3(r0, r2), cross3(r1, r2)] {

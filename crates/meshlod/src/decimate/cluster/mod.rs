@@ -1101,15 +1101,31 @@ impl Pipeline for InMemory<'_> {
         let mut used = vec![false; mesh.positions.len()];
         let used_ref = std::sync::Mutex::new(Some(&mut used[..]));
         let accumulate = |part: &mut [Acc], start: u32| {
-            let mut guard = used_ref.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+            let mut guard = used_ref
+                .lock()
+                .unwrap_or_else(std::sync::PoisonError::into_inner);
             let used = if start == 0 { guard.take() } else { None };
             drop(guard);
             match how {
                 Representative::Quadric => accumulate_part::<true>(
-                    mesh, vcell_ref, grid.origin, how, None, part, start, used,
+                    mesh,
+                    vcell_ref,
+                    grid.origin,
+                    how,
+                    None,
+                    part,
+                    start,
+                    used,
                 ),
                 _ => accumulate_part::<false>(
-                    mesh, vcell_ref, grid.origin, how, factors, part, start, used,
+                    mesh,
+                    vcell_ref,
+                    grid.origin,
+                    how,
+                    factors,
+                    part,
+                    start,
+                    used,
                 ),
             }
         };
@@ -1123,7 +1139,6 @@ impl Pipeline for InMemory<'_> {
                 .enumerate()
                 .for_each(|(s, part)| accumulate(part, (s * per) as u32));
         }
-        drop(used_ref);
         let mut out = finish(grid, &table, &accs, stage1, how, mesh.group_names.clone());
         // Attributes: per output vertex the closest input vertex of its cells (that a
         // triangle uses).
@@ -1211,7 +1226,9 @@ fn accumulate_part<const QUADRIC: bool>(
         );
         for ((plane, &t), &c) in planes.iter().zip(&which[..m]).zip(&cells_of[..m]) {
             let w = corner_weights(plane, how, |k| {
-                factors.map_or(1.0, |f| f64::from(f[mesh.triangles[t as usize][k] as usize]))
+                factors.map_or(1.0, |f| {
+                    f64::from(f[mesh.triangles[t as usize][k] as usize])
+                })
             });
             add_triangle::<QUADRIC>(part, start, c, plane, w);
         }

@@ -1490,36 +1490,19 @@ fn edge_counts(triangles: &[[u32; 3]], vertices: usize) -> EdgeCounts {
         start[v + 1] += start[v];
     }
     let mut fill = start.clone();
-    let mut bucketed = vec![(0u32, 0u32); 3 * triangles.len()];
+    // Each side: (larger end, corner of the smaller end, corner of the larger end),
+    // corners numbered `3t + k`, so the order by corner is the order by triangle.
+    let mut bucketed = vec![(0u32, 0u32, 0u32); 3 * triangles.len()];
     for (t, tri) in triangles.iter().enumerate() {
         for k in 0..3 {
-            let (a, b) = (tri[k], tri[(k + 1) % 3]);
+            let k1 = (k + 1) % 3;
+            let (a, b) = (tri[k], tri[k1]);
+            let (ca, cb) = ((3 * t + k) as u32, (3 * t + k1) as u32);
             let slot = &mut fill[a.min(b) as usize];
-            bucketed[*slot as usize] = (a.max(b), t as u32);
+            bucketed[*slot as usize] = if a < b { (b, ca, cb) } else { (a, cb, ca) };
             *slot += 1;
         }
     }
-    let mut sides: Vec<(u64, u32)> = Vec::with_capacity(bucketed.len());
-    for v in 0..vertices {
-        let bucket = &mut bucketed[start[v] as usize..start[v + 1] as usize];
-        bucket.sort_unstable();
-        sides.extend(
-            bucket
-                .iter()
-                .map(|&(b, t)| ((v as u64) << 32 | u64::from(b), t)),
-        );
-    }
-    let corner = |t: u32, v: u32| -> u32 {
-        let tri = &triangles[t as usize];
-        let k = if tri[0] == v {
-            0
-        } else if tri[1] == v {
-            1
-        } else {
-            2
-        };
-        3 * t + k
-    };
     let mut parent: Vec<u32> = (0..3 * triangles.len() as u32).collect();
     fn find(parent: &mut [u32], mut x: u32) -> u32 {
         while parent[x as usize] != x {
@@ -1541,29 +1524,32 @@ fn edge_counts(triangles: &[[u32; 3]], vertices: usize) -> EdgeCounts {
         non_manifold_vertices: 0,
         boundary_edges: 0,
     };
-    let mut i = 0;
-    while i < sides.len() {
-        let key = sides[i].0;
-        let mut j = i + 1;
-        while j < sides.len() && sides[j].0 == key {
-            j += 1;
-        }
-        let (a, b) = ((key >> 32) as u32, key as u32);
-        match j - i {
-            1 => counts.boundary_edges += 1,
-            2 => {}
-            _ => {
-                counts.non_manifold_edges += 1;
-                bad[a as usize] = true;
-                bad[b as usize] = true;
+    for a in 0..vertices {
+        let bucket = &mut bucketed[start[a] as usize..start[a + 1] as usize];
+        bucket.sort_unstable();
+        let mut i = 0;
+        while i < bucket.len() {
+            let b = bucket[i].0;
+            let mut j = i + 1;
+            while j < bucket.len() && bucket[j].0 == b {
+                j += 1;
             }
+            match j - i {
+                1 => counts.boundary_edges += 1,
+                2 => {}
+                _ => {
+                    counts.non_manifold_edges += 1;
+                    bad[a] = true;
+                    bad[b as usize] = true;
+                }
+            }
+            let (_, c0a, c0b) = bucket[i];
+            for &(_, ca, cb) in &bucket[i + 1..j] {
+                union(&mut parent, c0a, ca);
+                union(&mut parent, c0b, cb);
+            }
+            i = j;
         }
-        let t0 = sides[i].1;
-        for s in &sides[i + 1..j] {
-            union(&mut parent, corner(t0, a), corner(s.1, a));
-            union(&mut parent, corner(t0, b), corner(s.1, b));
-        }
-        i = j;
     }
     let mut fans = vec![0u32; vertices];
     for (t, tri) in triangles.iter().enumerate() {

@@ -24,9 +24,14 @@
 //! Every cell sums, over the corners of triangles that fall in it, a weighted
 //! position `Σ wᵢ pᵢ` and `Σ wᵢ`; and, for the quadric representative, the
 //! area-weighted plane quadric of every triangle touching the cell (once per cell the
-//! triangle touches). The sums are per **triangle corner**, so a vertex counts once
-//! per triangle using it; this is what a streamed triangle soup can compute, and the
-//! in-memory path computes exactly the same thing.
+//! triangle touches, also when all three corners share the cell: that triangle is
+//! dropped but its plane still shapes the representative). The sums are per
+//! **triangle corner**, so a vertex counts once per triangle using it; this is what
+//! a streamed triangle soup can compute, and the in-memory path computes exactly the
+//! same thing. Each triangle's quadric is computed once, in the grid's frame (origin
+//! at the grid's minimum corner), and moved to the cell's frame before solving; a
+//! corner weight of zero counts as 10⁻¹⁵⁰, so a cell of zero-area corners gets their
+//! plain mean. A cell's record is 120 bytes (15 f64).
 //! - [`Representative::Average`]: `wᵢ = 1`, the mean of the corners.
 //! - [`Representative::Weighted`]: `wᵢ = Aₜ/3 · f(v)`, the triangle's area share times
 //!   a per-vertex factor from [`ClusterWeights`]: 1, a feature measure, or a user
@@ -35,7 +40,12 @@
 //!   cell's quadric, solved around the area-weighted mean; when the 3×3 system is
 //!   ill-conditioned or the solution leaves the cell, the rank-deficient minimiser
 //!   (pseudo-inverse keeping eigenvalues above 10⁻³ of the largest, so flat
-//!   directions stay at the mean), clamped into the cell.
+//!   directions stay at the mean), clamped into the cell. Its eigenvalues come in
+//!   closed form (Smith 1961, the trigonometric solution of the characteristic
+//!   cubic) and the eigenvector it needs (the top one of a flat cell, the small one
+//!   of a cell with two significant eigenvalues) from cross products of rows of
+//!   `A − λI`; cyclic Jacobi rotations only where that eigenvector is
+//!   ill-determined (two eigenvalues within 1% across the threshold).
 //!
 //! Every representative lies in its cell, so no vertex moves farther than the cell
 //! diagonal `ε√3`.
@@ -64,7 +74,9 @@
 //! probes so far (the count falls roughly as ε⁻²); probes stop within
 //! `min(0.4·tolerance, 2%)`, or within `0.8·tolerance` after six probes, and after
 //! sixteen at most (on small targets the count jumps between neighbouring grids).
-//! The first stage (cell ids, distinct triangles) then gives the count exactly; when
+//! The first stage (cell ids, distinct triangles) then gives the count exactly (in
+//! memory it only visits the last probe's triangles with three distinct cells when
+//! that probe was on the same grid); when
 //! it misses the target by more than half the tolerance (a streamed sample counts
 //! duplicates less well) the goal is rescaled by probe / stage count and the search
 //! resumes from its earlier probes (at most three first stages, the closest is
@@ -90,7 +102,7 @@
 //! [`cluster_file`] reads the file twice with [`crate::io::stream`]: once for the
 //! bounding box, the count and a sample of at most 2²⁰ triangles for the search (all
 //! of them when the file has fewer), then once more to accumulate. Memory is the
-//! cell table and sums (about 200 bytes per occupied cell), the output triangles
+//! cell table and sums (about 170 bytes per occupied cell), the output triangles
 //! and, for indexed formats (PLY, OBJ), the vertex positions (12 bytes per vertex;
 //! a binary STL is a true soup). On the same input it gives the same mesh as
 //! [`cluster_mesh`] (positions and groups; streaming does not carry attributes).
@@ -103,7 +115,7 @@ use crate::io::stream;
 use crate::io::IoError;
 use crate::mesh::{Mesh, Weld};
 use crate::simplify::Distance;
-use accumulate::{contribute, prepare_block, representative, Acc, Prepared, BLOCK};
+use accumulate::{add_triangle, prepare_block, representative, Acc, Prepared, BLOCK, MIN_WEIGHT};
 use grid::KeyTriples;
 pub use grid::{CellTable, Grid, TripleSet, MAX_CELLS_PER_AXIS};
 use rayon::prelude::*;
@@ -566,6 +578,8 @@ pub fn cluster_mesh(
         keys: Vec::new(),
         keys_cell: f64::NAN,
         triples: KeyTriples::default(),
+        distinct: Vec::new(),
+        distinct_cell: f64::NAN,
     };
     let (mut out, search_passes, builds) =
         drive(lo, hi, diag, target, options, area, &mut pipeline);
@@ -852,46 +866,60 @@ const PAR_MIN: usize = 1 << 15;
 
 /// Triangles whose three corner keys differ, copies over the same three keys counted
 /// once. The distinct-key test is parallel for large inputs; the set is filled in
-/// order.
+/// order. With `record`, the indices of the triangles with three distinct keys are
+/// written there, in order (duplicates included).
 fn count_distinct(
     n: usize,
     keys_of: impl Fn(usize) -> [u64; 3] + Sync,
     set: &mut KeyTriples,
     goal: usize,
+    mut record: Option<&mut Vec<u32>>,
 ) -> usize {
     set.reset(goal + goal / 4);
+    if let Some(r) = record.as_deref_mut() {
+        r.clear();
+    }
     let distinct = |k: &[u64; 3]| (k[0] != k[1]) & (k[1] != k[2]) & (k[0] != k[2]);
     if n < 8 * PAR_MIN || rayon::current_num_threads() == 1 {
         // Without a branch per triangle: every triangle is written to the buffer,
         // which only advances past the distinct ones.
         let mut buf = [[0u64; 3]; 256];
+        let mut idx = [0u32; 256];
         let mut m = 0;
+        let mut flush = |buf: &[[u64; 3]], idx: &[u32]| {
+            for k in buf {
+                set.insert(*k);
+            }
+            if let Some(r) = record.as_deref_mut() {
+                r.extend_from_slice(idx);
+            }
+        };
         for t in 0..n {
             let k = keys_of(t);
             buf[m] = k;
+            idx[m] = t as u32;
             m += usize::from(distinct(&k));
             if m == buf.len() {
-                for k in &buf {
-                    set.insert(*k);
-                }
+                flush(&buf, &idx);
                 m = 0;
             }
         }
-        for k in &buf[..m] {
-            set.insert(*k);
-        }
+        flush(&buf[..m], &idx[..m]);
     } else {
-        let chunks: Vec<Vec<[u64; 3]>> = (0..n.div_ceil(PAR_MIN))
+        let chunks: Vec<Vec<(u32, [u64; 3])>> = (0..n.div_ceil(PAR_MIN))
             .into_par_iter()
             .map(|c| {
                 (c * PAR_MIN..((c + 1) * PAR_MIN).min(n))
-                    .map(&keys_of)
-                    .filter(distinct)
+                    .map(|t| (t as u32, keys_of(t)))
+                    .filter(|(_, k)| distinct(k))
                     .collect()
             })
             .collect();
-        for k in chunks.into_iter().flatten() {
+        for (t, k) in chunks.into_iter().flatten() {
             set.insert(k);
+            if let Some(r) = record.as_deref_mut() {
+                r.push(t);
+            }
         }
     }
     set.len()
@@ -974,6 +1002,10 @@ struct InMemory<'a> {
     keys: Vec<u64>,
     keys_cell: f64,
     triples: KeyTriples,
+    /// The triangles with three distinct cells on the grid of side `distinct_cell`
+    /// (the last probe's), in order.
+    distinct: Vec<u32>,
+    distinct_cell: f64,
 }
 
 /// An in-memory first stage.
@@ -1007,12 +1039,15 @@ impl Pipeline for InMemory<'_> {
     fn count(&mut self, grid: &Grid, goal: usize) -> usize {
         self.keys_for(grid);
         let (tris, keys) = (&self.mesh.triangles, &self.keys);
-        count_distinct(
+        let c = count_distinct(
             tris.len(),
             |t| tris[t].map(|v| keys[v as usize]),
             &mut self.triples,
             goal,
-        )
+            Some(&mut self.distinct),
+        );
+        self.distinct_cell = grid.cell;
+        c
     }
 
     fn stage(&mut self, grid: &Grid, expect: usize) -> (MemStaged, usize) {
@@ -1030,13 +1065,18 @@ impl Pipeline for InMemory<'_> {
         let mut table = CellTable::for_grid(grid, expected_cells(expect), dense_limit);
         let vcell: Vec<u32> = self.keys.iter().map(|&k| table.id(k)).collect();
         let (mut stage1, mut set) = Stage1::new(expect);
-        for (t, tri) in mesh.triangles.iter().enumerate() {
-            let c = [
-                vcell[tri[0] as usize],
-                vcell[tri[1] as usize],
-                vcell[tri[2] as usize],
-            ];
-            stage1.push(&mut set, c, mesh.group(t));
+        let cells_of = |t: usize| mesh.triangles[t].map(|v| vcell[v as usize]);
+        if self.distinct_cell.to_bits() == grid.cell.to_bits() {
+            // The last probe was on this grid: only its triangles with three distinct
+            // cells (distinct keys are distinct ids) can be kept.
+            for &t in &self.distinct {
+                stage1.push(&mut set, cells_of(t as usize), mesh.group(t as usize));
+            }
+            stage1.collapsed = mesh.triangles.len() - self.distinct.len();
+        } else {
+            for t in 0..mesh.triangles.len() {
+                stage1.push(&mut set, cells_of(t), mesh.group(t));
+            }
         }
         let got = stage1.cells.len();
         (
@@ -1062,53 +1102,48 @@ impl Pipeline for InMemory<'_> {
         let factors = self.factors.as_deref();
         let cells = table.len();
         let mut accs = vec![Acc::default(); cells];
-        let quadric = how == Representative::Quadric;
         let grid = &grid;
-        let corners: Vec<[f64; 3]> = table
-            .keys()
-            .iter()
-            .map(|&k| grid.corner(grid::unpack(k)))
-            .collect();
-        let corners = &corners[..];
         let vcell_ref = &vcell;
         // Workers own contiguous ranges of cells; each scans the triangles in order, so
         // every cell adds its contributions in input order (as the streaming path).
         // Triangles go in blocks: the planes of a block are computed in one tight loop
         // (square roots and divisions overlap), then added to the cells in order.
+        // The vertices some triangle uses (for the attributes below), marked by the
+        // worker that owns cell 0 (every worker scans all triangles).
+        let mut used = vec![false; mesh.positions.len()];
+        let used_ref = std::sync::Mutex::new(Some(&mut used[..]));
         let accumulate = |part: &mut [Acc], start: u32| {
-            let len = part.len() as u32;
-            let owned = |c: u32| c.wrapping_sub(start) < len;
-            let mut which = [0u32; BLOCK];
-            let mut cells_of = [[0u32; 3]; BLOCK];
-            let mut planes = [Prepared::ZERO; BLOCK];
-            for first in (0..mesh.triangles.len()).step_by(BLOCK) {
-                let last = (first + BLOCK).min(mesh.triangles.len());
-                let mut m = 0;
-                for t in first..last {
-                    let tri = &mesh.triangles[t];
-                    let c = tri.map(|v| vcell_ref[v as usize]);
-                    which[m] = t as u32;
-                    cells_of[m] = c;
-                    m += usize::from(owned(c[0]) | owned(c[1]) | owned(c[2]));
-                }
-                prepare_block(
-                    m,
-                    |i| mesh.triangles[which[i] as usize].map(|v| mesh.positions[v as usize]),
+            let mut guard = used_ref
+                .lock()
+                .unwrap_or_else(std::sync::PoisonError::into_inner);
+            let used = if start == 0 { guard.take() } else { None };
+            drop(guard);
+            match how {
+                Representative::Quadric => accumulate_part::<true>(
+                    mesh,
+                    vcell_ref,
                     grid.origin,
-                    &mut planes,
-                );
-                for ((plane, &t), &c) in planes.iter().zip(&which[..m]).zip(&cells_of[..m]) {
-                    let tri = &mesh.triangles[t as usize];
-                    let w = corner_weights(plane, how, |k| {
-                        factors.map_or(1.0, |f| f64::from(f[tri[k] as usize]))
-                    });
-                    add_to_cells(plane, c, w, quadric, corners, part, start);
-                }
+                    how,
+                    None,
+                    part,
+                    start,
+                    used,
+                ),
+                _ => accumulate_part::<false>(
+                    mesh,
+                    vcell_ref,
+                    grid.origin,
+                    how,
+                    factors,
+                    part,
+                    start,
+                    used,
+                ),
             }
         };
         let shards = rayon::current_num_threads().clamp(1, 64);
         // Every worker scans all triangles: worth it on large inputs only.
-        if shards == 1 || mesh.triangles.len() < 8 * PAR_MIN {
+        if shards == 1 || mesh.triangles.len() < PAR_ACCUMULATE {
             accumulate(&mut accs, 0);
         } else {
             let per = cells.div_ceil(shards).max(1);
@@ -1121,12 +1156,6 @@ impl Pipeline for InMemory<'_> {
         // triangle uses).
         let n_out = out.mesh.positions.len();
         let mut best = vec![(f64::INFINITY, u32::MAX); n_out];
-        let mut used = vec![false; mesh.positions.len()];
-        for tri in &mesh.triangles {
-            for &v in tri {
-                used[v as usize] = true;
-            }
-        }
         for (v, &c) in vcell.iter().enumerate() {
             if !used[v] {
                 continue;
@@ -1162,6 +1191,62 @@ impl Pipeline for InMemory<'_> {
     }
 }
 
+/// Inputs from this many triangles accumulate in parallel (over ranges of cells).
+const PAR_ACCUMULATE: usize = 8 * PAR_MIN;
+
+/// Adds every triangle of `mesh` (in order) to the cells `start .. start +
+/// part.len()` it touches, `vcell` the cell of every vertex. Triangles whose cells
+/// are all outside the range are skipped before their planes are computed. With
+/// `used`, marks there every vertex a triangle uses.
+#[allow(clippy::too_many_arguments)]
+fn accumulate_part<const QUADRIC: bool>(
+    mesh: &Mesh,
+    vcell: &[u32],
+    origin: [f64; 3],
+    how: Representative,
+    factors: Option<&[f32]>,
+    part: &mut [Acc],
+    start: u32,
+    mut used: Option<&mut [bool]>,
+) {
+    let len = part.len() as u32;
+    let owned = |c: u32| c.wrapping_sub(start) < len;
+    let mut which = [0u32; BLOCK];
+    let mut cells_of = [[0u32; 3]; BLOCK];
+    let mut planes = [Prepared::ZERO; BLOCK];
+    let n = mesh.triangles.len();
+    for first in (0..n).step_by(BLOCK) {
+        let last = (first + BLOCK).min(n);
+        let mut m = 0;
+        for t in first..last {
+            let tri = &mesh.triangles[t];
+            let c = tri.map(|v| vcell[v as usize]);
+            if let Some(u) = used.as_deref_mut() {
+                for &v in tri {
+                    u[v as usize] = true;
+                }
+            }
+            which[m] = t as u32;
+            cells_of[m] = c;
+            m += usize::from(owned(c[0]) | owned(c[1]) | owned(c[2]));
+        }
+        prepare_block(
+            m,
+            |i| mesh.triangles[which[i] as usize].map(|v| mesh.positions[v as usize]),
+            origin,
+            &mut planes,
+        );
+        for ((plane, &t), &c) in planes.iter().zip(&which[..m]).zip(&cells_of[..m]) {
+            let w = corner_weights(plane, how, |k| {
+                factors.map_or(1.0, |f| {
+                    f64::from(f[mesh.triangles[t as usize][k] as usize])
+                })
+            });
+            add_triangle::<QUADRIC>(part, start, c, plane, w);
+        }
+    }
+}
+
 /// The streaming pipeline: probes on the sample, and every first stage is a whole
 /// build over the file (the second pass).
 struct Streamed<'a> {
@@ -1186,6 +1271,7 @@ impl Pipeline for Streamed<'_> {
             |t| tris[t].map(|p| grid.key(p)),
             &mut self.triples,
             sample_goal,
+            None,
         );
         (c as f64 * self.scale).round() as usize
     }
@@ -1226,22 +1312,23 @@ fn build_streamed(
     let cells = expected_cells(expect);
     let mut table = CellTable::for_grid(grid, cells, (16 * cells).max(1 << 16));
     let mut accs: Vec<Acc> = Vec::with_capacity(cells);
-    let mut corners: Vec<[f64; 3]> = Vec::with_capacity(cells);
     let (mut stage1, mut set) = Stage1::new(expect);
     let s = stream::for_each_triangle(path, |tri, group| {
         let c = tri.map(|p| {
-            let key = grid.key(p);
-            let id = table.id(key);
+            let id = table.id(grid.key(p));
             if id as usize == accs.len() {
                 accs.push(Acc::default());
-                corners.push(grid.corner(grid::unpack(key)));
             }
             id
         });
         stage1.push(&mut set, c, group);
         let t = Prepared::new(tri, grid.origin);
         let w = corner_weights(&t, how, |_| 1.0);
-        add_to_cells(&t, c, w, quadric, &corners, &mut accs, 0);
+        if quadric {
+            add_triangle::<true>(&mut accs, 0, c, &t, w);
+        } else {
+            add_triangle::<false>(&mut accs, 0, c, &t, w);
+        }
     })?;
     let set_bytes = set.bytes();
     drop(set);
@@ -1261,47 +1348,15 @@ fn build_streamed(
     ))
 }
 
-/// Corner weights of the representative's mean.
-#[inline]
+/// Corner weights of the representative's mean (at least [`MIN_WEIGHT`], so that
+/// a cell of zero-weight corners gets their plain mean).
+#[inline(always)]
 fn corner_weights(t: &Prepared, how: Representative, factor: impl Fn(usize) -> f64) -> [f64; 3] {
     match how {
         Representative::Average => [1.0; 3],
         // The mean is Σ wᵢ pᵢ / Σ wᵢ: the common factor 1/3 of `Aₜ/3` cancels.
-        Representative::Quadric => [t.area; 3],
-        Representative::Weighted => std::array::from_fn(|k| t.area * factor(k)),
-    }
-}
-
-/// Adds triangle `t` with corner cells `c` to each distinct cell among
-/// `start .. start + accs.len()` (the in-memory workers own a range of cells).
-#[inline(always)]
-#[allow(clippy::too_many_arguments)]
-fn add_to_cells(
-    t: &Prepared,
-    c: [u32; 3],
-    w: [f64; 3],
-    quadric: bool,
-    corners: &[[f64; 3]],
-    accs: &mut [Acc],
-    start: u32,
-) {
-    if c[0] == c[1] && c[1] == c[2] {
-        if let Some(a) = accs.get_mut(c[0].wrapping_sub(start) as usize) {
-            contribute(a, corners[c[0] as usize], t, [true; 3], w, quadric);
-        }
-        return;
-    }
-    for k in 0..3 {
-        if (k >= 1 && c[k] == c[0]) || (k == 2 && c[2] == c[1]) {
-            continue;
-        }
-        if let Some(a) = c[k]
-            .checked_sub(start)
-            .and_then(|i| accs.get_mut(i as usize))
-        {
-            let mask = [c[0] == c[k], c[1] == c[k], c[2] == c[k]];
-            contribute(a, corners[c[k] as usize], t, mask, w, quadric);
-        }
+        Representative::Quadric => [t.area.max(MIN_WEIGHT); 3],
+        Representative::Weighted => std::array::from_fn(|k| (t.area * factor(k)).max(MIN_WEIGHT)),
     }
 }
 
@@ -1400,7 +1455,7 @@ fn finish(
             representative: how,
             cell_size: grid.cell,
             grid: grid.dims,
-            occupied_cells: accs.iter().filter(|a| a.n > 0.0).count(),
+            occupied_cells: accs.iter().filter(|a| a.w > 0.0).count(),
             search_passes: 0,
             builds: 1,
             collapsed_triangles: stage1.collapsed,
@@ -1447,36 +1502,19 @@ fn edge_counts(triangles: &[[u32; 3]], vertices: usize) -> EdgeCounts {
         start[v + 1] += start[v];
     }
     let mut fill = start.clone();
-    let mut bucketed = vec![(0u32, 0u32); 3 * triangles.len()];
+    // Each side: (larger end, corner of the smaller end, corner of the larger end),
+    // corners numbered `3t + k`, so the order by corner is the order by triangle.
+    let mut bucketed = vec![(0u32, 0u32, 0u32); 3 * triangles.len()];
     for (t, tri) in triangles.iter().enumerate() {
         for k in 0..3 {
-            let (a, b) = (tri[k], tri[(k + 1) % 3]);
+            let k1 = (k + 1) % 3;
+            let (a, b) = (tri[k], tri[k1]);
+            let (ca, cb) = ((3 * t + k) as u32, (3 * t + k1) as u32);
             let slot = &mut fill[a.min(b) as usize];
-            bucketed[*slot as usize] = (a.max(b), t as u32);
+            bucketed[*slot as usize] = if a < b { (b, ca, cb) } else { (a, cb, ca) };
             *slot += 1;
         }
     }
-    let mut sides: Vec<(u64, u32)> = Vec::with_capacity(bucketed.len());
-    for v in 0..vertices {
-        let bucket = &mut bucketed[start[v] as usize..start[v + 1] as usize];
-        bucket.sort_unstable();
-        sides.extend(
-            bucket
-                .iter()
-                .map(|&(b, t)| ((v as u64) << 32 | u64::from(b), t)),
-        );
-    }
-    let corner = |t: u32, v: u32| -> u32 {
-        let tri = &triangles[t as usize];
-        let k = if tri[0] == v {
-            0
-        } else if tri[1] == v {
-            1
-        } else {
-            2
-        };
-        3 * t + k
-    };
     let mut parent: Vec<u32> = (0..3 * triangles.len() as u32).collect();
     fn find(parent: &mut [u32], mut x: u32) -> u32 {
         while parent[x as usize] != x {
@@ -1498,29 +1536,32 @@ fn edge_counts(triangles: &[[u32; 3]], vertices: usize) -> EdgeCounts {
         non_manifold_vertices: 0,
         boundary_edges: 0,
     };
-    let mut i = 0;
-    while i < sides.len() {
-        let key = sides[i].0;
-        let mut j = i + 1;
-        while j < sides.len() && sides[j].0 == key {
-            j += 1;
-        }
-        let (a, b) = ((key >> 32) as u32, key as u32);
-        match j - i {
-            1 => counts.boundary_edges += 1,
-            2 => {}
-            _ => {
-                counts.non_manifold_edges += 1;
-                bad[a as usize] = true;
-                bad[b as usize] = true;
+    for a in 0..vertices {
+        let bucket = &mut bucketed[start[a] as usize..start[a + 1] as usize];
+        bucket.sort_unstable();
+        let mut i = 0;
+        while i < bucket.len() {
+            let b = bucket[i].0;
+            let mut j = i + 1;
+            while j < bucket.len() && bucket[j].0 == b {
+                j += 1;
             }
+            match j - i {
+                1 => counts.boundary_edges += 1,
+                2 => {}
+                _ => {
+                    counts.non_manifold_edges += 1;
+                    bad[a] = true;
+                    bad[b as usize] = true;
+                }
+            }
+            let (_, c0a, c0b) = bucket[i];
+            for &(_, ca, cb) in &bucket[i + 1..j] {
+                union(&mut parent, c0a, ca);
+                union(&mut parent, c0b, cb);
+            }
+            i = j;
         }
-        let t0 = sides[i].1;
-        for s in &sides[i + 1..j] {
-            union(&mut parent, corner(t0, a), corner(s.1, a));
-            union(&mut parent, corner(t0, b), corner(s.1, b));
-        }
-        i = j;
     }
     let mut fans = vec![0u32; vertices];
     for (t, tri) in triangles.iter().enumerate() {

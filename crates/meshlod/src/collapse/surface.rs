@@ -746,6 +746,65 @@ impl Surface {
         }
     }
 
+    /// Reads the per-point data of `points` that [`Self::moves`] and
+    /// [`Self::local`] use, in one pass of independent loads, so that their cache
+    /// misses overlap (a hint: nothing changes).
+    pub fn prefetch(&self, points: &[u32]) {
+        let mut s = 0u32;
+        for &p in points {
+            let p = p as usize;
+            if p < self.pos.len() {
+                s = s
+                    .wrapping_add(self.pos[p][0].to_bits())
+                    .wrapping_add(self.fan_len[p])
+                    .wrapping_add(self.kind[p] as u32);
+            }
+        }
+        std::hint::black_box(s);
+    }
+
+    /// Reads the triangles around `u` and `v` and their corners' positions in two
+    /// passes of independent loads (what [`Self::check`] walks next), so that their
+    /// cache misses overlap. A hint: nothing changes.
+    pub fn prefetch_pair(&self, u: u32, v: u32) {
+        if u as usize >= self.pos.len() || v as usize >= self.pos.len() {
+            return;
+        }
+        // First the triangles (independent loads), then their corners' positions
+        // (the triangles are in cache by then).
+        let mut s = 0u32;
+        for p in [u, v] {
+            for &t in self.fan(p) {
+                s = s.wrapping_add(self.tri[t as usize][0]);
+            }
+        }
+        let mut x = 0u32;
+        for p in [u, v] {
+            for &t in self.fan(p) {
+                for c in self.tri[t as usize] {
+                    x = x.wrapping_add(self.pos[c as usize][0].to_bits());
+                }
+            }
+        }
+        std::hint::black_box((s, x));
+    }
+
+    /// Reads the per-point state a pop of pair `(a, b)` starts with (a hint).
+    pub fn prefetch_start(&self, a: u32, b: u32) {
+        let mut s = 0u32;
+        for p in [a, b] {
+            let p = p as usize;
+            if p < self.pos.len() {
+                s = s
+                    .wrapping_add(self.fan_start[p])
+                    .wrapping_add(self.fan_len[p])
+                    .wrapping_add(self.kind[p] as u32)
+                    .wrapping_add(self.pos[p][0].to_bits());
+            }
+        }
+        std::hint::black_box(s);
+    }
+
     /// Replaces `out` with the distinct neighbours of `p`, in fan order.
     pub fn neighbours(&mut self, p: u32, out: &mut Vec<u32>) {
         out.clear();

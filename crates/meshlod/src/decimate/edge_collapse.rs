@@ -78,7 +78,7 @@ impl<C: CostModel + ?Sized> Driver<'_, C> {
 
     fn entry_with(&self, a: u32, b: u32, endpoint_only: bool) -> Option<Item> {
         let m = self.moves(a, b, endpoint_only)?;
-        let c = self.cost.evaluate(self.surface, a, b, &m)?;
+        let c = self.cost.evaluate_cost(self.surface, a, b, &m)?;
         Some(
             Item {
                 a,
@@ -86,7 +86,7 @@ impl<C: CostModel + ?Sized> Driver<'_, C> {
                 stamp: self.stamp(a, b, endpoint_only),
                 cost_bits: 0,
             }
-            .with_cost(c.cost),
+            .with_cost(c),
         )
     }
 
@@ -139,6 +139,15 @@ impl<C: CostModel + ?Sized> Driver<'_, C> {
     fn push_around(&mut self, v: u32) {
         let mut nb = std::mem::take(&mut self.scratch);
         self.surface.neighbours(v, &mut nb);
+        // Read the neighbours' state in one pass first: their cache misses then
+        // overlap instead of stalling one evaluation each.
+        self.cost.prefetch(&nb);
+        self.surface.prefetch(&nb);
+        let mut s = 0u32;
+        for &q in &nb {
+            s = s.wrapping_add(self.version[q as usize]);
+        }
+        std::hint::black_box(s);
         for &q in &nb {
             if let Some(e) = self.entry(v, q) {
                 self.heap.push(e);
@@ -296,6 +305,8 @@ pub fn run<C: CostModel + ?Sized>(
             continue;
         }
         let p = c.position.map(|x| x as f32);
+        // Load both fans and their corners before the check walks them.
+        d.surface.prefetch_pair(c.removed, c.kept);
         if let Err(r) = d
             .surface
             .check(c.removed, c.kept, p, &d.limits, &mut preview)
@@ -378,6 +389,12 @@ pub fn run<C: CostModel + ?Sized>(
             }
         }
         d.push_around(v);
+        // The next pop is most likely the current top: start loading its state.
+        if let Some(&n) = d.heap.peek_band() {
+            d.surface.prefetch_start(n.a, n.b);
+            d.cost.prefetch(&[n.a, n.b]);
+            std::hint::black_box(d.version[n.a as usize].wrapping_add(d.version[n.b as usize]));
+        }
         // Drop stale entries once the queue holds more than ~2 entries per live
         // triangle (there are ~1.5 live pairs per triangle): bounds its memory.
         if d.heap.len() > 2 * d.surface.live_triangles() + 4096 {

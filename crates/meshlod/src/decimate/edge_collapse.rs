@@ -376,6 +376,10 @@ pub fn run<C: CostModel + ?Sized>(
         }
         let (u, v) = (record.removed, record.kept);
         d.version[v as usize] = d.version[v as usize].wrapping_add(1);
+        // The removed point's entries go stale too: a point only ever dies as the
+        // removed end of a collapse (the operator lets nothing else vanish), so a
+        // matching stamp alone means both points are alive.
+        d.version[u as usize] = d.version[u as usize].wrapping_add(1);
         if !d.partners.is_empty() {
             d.forward[u as usize] = v;
             let moved = std::mem::take(&mut d.partners[u as usize]);
@@ -399,13 +403,10 @@ pub fn run<C: CostModel + ?Sized>(
         // triangle (there are ~1.5 live pairs per triangle): bounds its memory.
         if d.heap.len() > 2 * d.surface.live_triangles() + 4096 {
             let version = &d.version;
-            let surface = &*d.surface;
             d.heap.retain(|e| {
                 let (a, b) = (e.a, e.b);
-                surface.is_alive(a)
-                    && surface.is_alive(b)
-                    && (version[a as usize].wrapping_add(version[b as usize]) << 1) | (e.stamp & 1)
-                        == e.stamp
+                (version[a as usize].wrapping_add(version[b as usize]) << 1) | (e.stamp & 1)
+                    == e.stamp
             });
         }
     }

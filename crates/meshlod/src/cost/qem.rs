@@ -269,12 +269,12 @@ impl CostModel for Qem {
     }
 
     fn prefetch(&self, points: &[u32]) {
-        // One load per cache line a quadric spans (88 bytes: the first and the last
-        // entry), all independent.
+        // One load per cache line a quadric may span (88 bytes: up to three lines of
+        // 64), all independent.
         let mut s = 0.0;
         for &p in points {
             if let Some(q) = self.quadrics.get(p as usize) {
-                s += q.m[0] + q.weight;
+                s += q.m[0] + q.m[5] + q.weight;
             }
         }
         std::hint::black_box(s);

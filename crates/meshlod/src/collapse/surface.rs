@@ -37,6 +37,15 @@ struct Geometry {
     p: [f64; 3],
 }
 
+/// Where a point's fan lives in the fan array: start, length (its live triangles)
+/// and capacity, together so one cache line serves all three.
+#[derive(Debug, Clone, Copy, Default)]
+struct FanSlot {
+    start: u32,
+    len: u32,
+    cap: u32,
+}
+
 /// Per-neighbour scratch used while classifying a point.
 #[derive(Debug, Clone, Copy, Default)]
 struct EdgeScratch {
@@ -58,9 +67,8 @@ pub struct Surface {
     pos: Vec<[f32; 3]>,
     kind: Vec<VertexKind>,
     boundary: Vec<bool>,
-    fan_start: Vec<u32>,
-    fan_len: Vec<u32>,
-    fan_cap: Vec<u32>,
+    /// Per point: where its fan lives in `fans` (one record, one cache line).
+    fan_slot: Vec<FanSlot>,
     fans: Vec<u32>,
     fan_garbage: usize,
     tri: Vec<[u32; 3]>,
@@ -191,9 +199,7 @@ impl Surface {
             pos,
             kind: vec![VertexKind::Complex; np],
             boundary: vec![false; np],
-            fan_start: Vec::new(),
-            fan_len: Vec::new(),
-            fan_cap: Vec::new(),
+            fan_slot: Vec::new(),
             fans: Vec::new(),
             fan_garbage: 0,
             tri,
@@ -306,9 +312,11 @@ impl Surface {
                 }
             }
         }
-        self.fan_start = start;
-        self.fan_len = fill;
-        self.fan_cap = cap;
+        self.fan_slot = start
+            .iter()
+            .zip(fill.iter().zip(cap.iter()))
+            .map(|(&start, (&len, &cap))| FanSlot { start, len, cap })
+            .collect();
         self.fans = fans;
         self.fan_garbage = 0;
     }
@@ -317,22 +325,22 @@ impl Surface {
     fn compact_fans(&mut self) {
         let np = self.pos.len();
         let total: usize = (0..np)
-            .filter(|&p| self.fan_len[p] > 0)
-            .map(|p| (self.fan_len[p] + FAN_SLACK) as usize)
+            .filter(|&p| self.fan_slot[p].len > 0)
+            .map(|p| (self.fan_slot[p].len + FAN_SLACK) as usize)
             .sum();
         let mut fans = Vec::with_capacity(total);
         for p in 0..np {
-            let l = self.fan_len[p];
+            let l = self.fan_slot[p].len;
             if l == 0 {
-                self.fan_start[p] = fans.len() as u32;
-                self.fan_cap[p] = 0;
+                self.fan_slot[p].start = fans.len() as u32;
+                self.fan_slot[p].cap = 0;
                 continue;
             }
-            let s = self.fan_start[p] as usize;
-            self.fan_start[p] = fans.len() as u32;
+            let s = self.fan_slot[p].start as usize;
+            self.fan_slot[p].start = fans.len() as u32;
             fans.extend_from_slice(&self.fans[s..s + l as usize]);
             fans.extend(std::iter::repeat_n(DEAD, FAN_SLACK as usize));
-            self.fan_cap[p] = l + FAN_SLACK;
+            self.fan_slot[p].cap = l + FAN_SLACK;
         }
         self.fans = fans;
         self.fan_garbage = 0;
@@ -345,8 +353,8 @@ impl Surface {
             let tt = self.tri[t];
             let key = sorted3(tt);
             let m = key[0];
-            let s = self.fan_start[m as usize] as usize;
-            let l = self.fan_len[m as usize] as usize;
+            let s = self.fan_slot[m as usize].start as usize;
+            let l = self.fan_slot[m as usize].len as usize;
             let mut dup = false;
             for &t2 in &self.fans[s..s + l] {
                 if (t2 as usize) < t
@@ -401,7 +409,7 @@ impl Surface {
     /// Number of points with at least one triangle.
     #[must_use]
     pub fn live_points(&self) -> usize {
-        self.fan_len.iter().filter(|&&l| l > 0).count()
+        self.fan_slot.iter().filter(|s| s.len > 0).count()
     }
 
     /// Position of point `p`.
@@ -441,15 +449,15 @@ impl Surface {
     #[must_use]
     #[inline]
     pub fn is_alive(&self, p: u32) -> bool {
-        self.fan_len[p as usize] > 0
+        self.fan_slot[p as usize].len > 0
     }
 
     /// The triangles around point `p` (live ones only).
     #[must_use]
     #[inline]
     pub fn fan(&self, p: u32) -> &[u32] {
-        let s = self.fan_start[p as usize] as usize;
-        &self.fans[s..s + self.fan_len[p as usize] as usize]
+        let s = self.fan_slot[p as usize].start as usize;
+        &self.fans[s..s + self.fan_slot[p as usize].len as usize]
     }
 
     /// The points of triangle `t` (`[DEAD; 3]` once removed).
@@ -555,7 +563,7 @@ impl Surface {
         if self.kind[pi] == VertexKind::Locked {
             return;
         }
-        let fl = self.fan_len[pi] as usize;
+        let fl = self.fan_slot[pi].len as usize;
         if fl == 0 {
             self.kind[pi] = VertexKind::Complex;
             self.boundary[pi] = false;
@@ -578,7 +586,7 @@ impl Surface {
         let mut parent = std::mem::take(&mut self.scratch_parent);
         edges.clear();
         parent.clear();
-        let s = self.fan_start[pi] as usize;
+        let s = self.fan_slot[pi].start as usize;
         for li in 0..fl {
             let t = self.fans[s + li];
             parent.push(li as u32);
@@ -683,8 +691,8 @@ impl Surface {
     /// in an oriented disc every `b` is the `a` of exactly the next triangle, so
     /// following `b → a` visits every triangle once.
     pub(crate) fn single_oriented_fan(&self, p: u32) -> Option<bool> {
-        let s = self.fan_start[p as usize] as usize;
-        let fl = self.fan_len[p as usize] as usize;
+        let s = self.fan_slot[p as usize].start as usize;
+        let fl = self.fan_slot[p as usize].len as usize;
         let (mut a, mut b) = ([0u32; 16], [0u32; 16]);
         for i in 0..fl {
             let tt = self.tri[self.fans[s + i] as usize];
@@ -746,12 +754,71 @@ impl Surface {
         }
     }
 
+    /// Reads the per-point data of `points` that [`Self::moves`] and
+    /// [`Self::local`] use, in one pass of independent loads, so that their cache
+    /// misses overlap (a hint: nothing changes).
+    pub fn prefetch(&self, points: &[u32]) {
+        let mut s = 0u32;
+        for &p in points {
+            let p = p as usize;
+            if p < self.pos.len() {
+                s = s
+                    .wrapping_add(self.pos[p][0].to_bits())
+                    .wrapping_add(self.fan_slot[p].len)
+                    .wrapping_add(self.kind[p] as u32);
+            }
+        }
+        std::hint::black_box(s);
+    }
+
+    /// Reads the triangles around `u` and `v` and their corners' positions in two
+    /// passes of independent loads (what [`Self::check`] walks next), so that their
+    /// cache misses overlap. A hint: nothing changes.
+    pub fn prefetch_pair(&self, u: u32, v: u32) {
+        if u as usize >= self.pos.len() || v as usize >= self.pos.len() {
+            return;
+        }
+        // First the triangles (independent loads), then their corners' positions
+        // (the triangles are in cache by then).
+        let mut s = 0u32;
+        for p in [u, v] {
+            for &t in self.fan(p) {
+                s = s.wrapping_add(self.tri[t as usize][0]);
+            }
+        }
+        let mut x = 0u32;
+        for p in [u, v] {
+            for &t in self.fan(p) {
+                for c in self.tri[t as usize] {
+                    x = x.wrapping_add(self.pos[c as usize][0].to_bits());
+                }
+            }
+        }
+        std::hint::black_box((s, x));
+    }
+
+    /// Reads the per-point state a pop of pair `(a, b)` starts with (a hint).
+    pub fn prefetch_start(&self, a: u32, b: u32) {
+        let mut s = 0u32;
+        for p in [a, b] {
+            let p = p as usize;
+            if p < self.pos.len() {
+                s = s
+                    .wrapping_add(self.fan_slot[p].start)
+                    .wrapping_add(self.fan_slot[p].len)
+                    .wrapping_add(self.kind[p] as u32)
+                    .wrapping_add(self.pos[p][0].to_bits());
+            }
+        }
+        std::hint::black_box(s);
+    }
+
     /// Replaces `out` with the distinct neighbours of `p`, in fan order.
     pub fn neighbours(&mut self, p: u32, out: &mut Vec<u32>) {
         out.clear();
         let g = self.next_gen();
-        let s = self.fan_start[p as usize] as usize;
-        for i in 0..self.fan_len[p as usize] as usize {
+        let s = self.fan_slot[p as usize].start as usize;
+        for i in 0..self.fan_slot[p as usize].len as usize {
             let t = self.fans[s + i];
             for &x in &self.tri[t as usize] {
                 if x != p && self.mark[x as usize] != g {
@@ -933,8 +1000,8 @@ impl Surface {
         let mut opp = [DEAD; 2];
         let mut dying_t = [DEAD; 2];
         let pu = f64x3(self.pos[u as usize]);
-        let su = self.fan_start[u as usize] as usize;
-        for i in 0..self.fan_len[u as usize] as usize {
+        let su = self.fan_slot[u as usize].start as usize;
+        for i in 0..self.fan_slot[u as usize].len as usize {
             let t = self.fans[su + i];
             let tt = self.tri[t as usize];
             if tt.contains(&v) {
@@ -961,11 +1028,11 @@ impl Surface {
         }
         // Nothing may vanish: the survivor and every apex keep a triangle (so a
         // small component is never collapsed away).
-        let left = self.fan_len[u as usize] as usize + self.fan_len[v as usize] as usize;
+        let left = self.fan_slot[u as usize].len as usize + self.fan_slot[v as usize].len as usize;
         if left <= 2 * dying
             || opp
                 .iter()
-                .any(|&a| a != DEAD && self.fan_len[a as usize] <= 1)
+                .any(|&a| a != DEAD && self.fan_slot[a as usize].len <= 1)
         {
             return Err(Reject::Link);
         }
@@ -988,8 +1055,8 @@ impl Surface {
         // Fan of v: the link condition (common neighbours are exactly the apexes; a
         // non-edge pair may have none) and the triangles that survive with v moved.
         let pv = f64x3(self.pos[v as usize]);
-        let sv = self.fan_start[v as usize] as usize;
-        for i in 0..self.fan_len[v as usize] as usize {
+        let sv = self.fan_slot[v as usize].start as usize;
+        for i in 0..self.fan_slot[v as usize].len as usize {
             let t = self.fans[sv + i];
             let tt = self.tri[t as usize];
             for &x in &tt {
@@ -1011,7 +1078,7 @@ impl Surface {
         // Duplicate triangles: both u and v have a triangle over the two apexes.
         // u is a single-fan manifold point, so it can only have one when its fan is
         // exactly the three triangles (u,v,a), (u,a,b), (u,b,v).
-        if dying == 2 && self.fan_len[u as usize] <= 3 {
+        if dying == 2 && self.fan_slot[u as usize].len <= 3 {
             let has = |s: &Self, w: u32, other: u32| {
                 s.fan(w).iter().any(|&t| {
                     let tt = s.tri[t as usize];
@@ -1105,8 +1172,8 @@ impl Surface {
         let mut removed_triangles = [DEAD; 2];
         let mut opp = [DEAD; 2];
         let mut n_dead = 0;
-        let su = self.fan_start[u as usize] as usize;
-        let lu = self.fan_len[u as usize] as usize;
+        let su = self.fan_slot[u as usize].start as usize;
+        let lu = self.fan_slot[u as usize].len as usize;
         for i in 0..lu {
             let t = self.fans[su + i];
             let tt = self.tri[t as usize];
@@ -1158,8 +1225,8 @@ impl Surface {
         }
 
         // Merge the fans into v.
-        let sv = self.fan_start[v as usize] as usize;
-        let lv = self.fan_len[v as usize] as usize;
+        let sv = self.fan_slot[v as usize].start as usize;
+        let lv = self.fan_slot[v as usize].len as usize;
         let live_v = (0..lv)
             .filter(|&i| self.tri[self.fans[sv + i] as usize][0] != DEAD)
             .count();
@@ -1167,7 +1234,7 @@ impl Surface {
             .filter(|&i| self.tri[self.fans[su + i] as usize][0] != DEAD)
             .count();
         let new_len = live_v + live_u;
-        if new_len <= self.fan_cap[v as usize] as usize {
+        if new_len <= self.fan_slot[v as usize].cap as usize {
             let mut w = sv;
             for i in 0..lv {
                 let t = self.fans[sv + i];
@@ -1188,8 +1255,8 @@ impl Surface {
             if self.fan_garbage > self.fans.len() / 4 {
                 self.compact_fans();
             }
-            let sv = self.fan_start[v as usize] as usize;
-            let su = self.fan_start[u as usize] as usize;
+            let sv = self.fan_slot[v as usize].start as usize;
+            let su = self.fan_slot[u as usize].start as usize;
             let start = self.fans.len();
             for i in 0..lv {
                 let t = self.fans[sv + i];
@@ -1204,14 +1271,14 @@ impl Surface {
                 }
             }
             self.fans.resize(start + cap, DEAD);
-            self.fan_garbage += self.fan_cap[v as usize] as usize;
-            self.fan_start[v as usize] = start as u32;
-            self.fan_cap[v as usize] = cap as u32;
+            self.fan_garbage += self.fan_slot[v as usize].cap as usize;
+            self.fan_slot[v as usize].start = start as u32;
+            self.fan_slot[v as usize].cap = cap as u32;
         }
-        self.fan_len[v as usize] = new_len as u32;
-        self.fan_garbage += self.fan_cap[u as usize] as usize;
-        self.fan_len[u as usize] = 0;
-        self.fan_cap[u as usize] = 0;
+        self.fan_slot[v as usize].len = new_len as u32;
+        self.fan_garbage += self.fan_slot[u as usize].cap as usize;
+        self.fan_slot[u as usize].len = 0;
+        self.fan_slot[u as usize].cap = 0;
         self.pos[v as usize] = p;
 
         // Kinds: unchanged when everything around was manifold, otherwise recomputed.
@@ -1267,15 +1334,15 @@ impl Surface {
     }
 
     fn remove_from_fan(&mut self, x: u32, t: u32) {
-        let s = self.fan_start[x as usize] as usize;
-        let l = self.fan_len[x as usize] as usize;
+        let s = self.fan_slot[x as usize].start as usize;
+        let l = self.fan_slot[x as usize].len as usize;
         if let Some(i) = self.fans[s..s + l].iter().position(|&y| y == t) {
             self.fans[s + i] = self.fans[s + l - 1];
             self.fans[s + l - 1] = DEAD;
-            self.fan_len[x as usize] -= 1;
+            self.fan_slot[x as usize].len -= 1;
             if l == 1 {
-                self.fan_garbage += self.fan_cap[x as usize] as usize;
-                self.fan_cap[x as usize] = 0;
+                self.fan_garbage += self.fan_slot[x as usize].cap as usize;
+                self.fan_slot[x as usize].cap = 0;
             }
         }
     }

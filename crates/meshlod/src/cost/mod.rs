@@ -51,6 +51,22 @@ pub trait CostModel {
     /// when the model proposes none.
     fn evaluate(&self, surface: &Surface, a: u32, b: u32, moves: &Moves) -> Option<Candidate>;
 
+    /// The cost [`CostModel::evaluate`] would give pair `(a, b)` (`None` when it
+    /// would propose nothing), without the position and the error: what the driver
+    /// queues. Must equal `evaluate(..).map(|c| c.cost)` exactly; a model may
+    /// override it with a leaner computation. Default: exactly that.
+    fn evaluate_cost(&self, surface: &Surface, a: u32, b: u32, moves: &Moves) -> Option<f64> {
+        self.evaluate(surface, a, b, moves).map(|c| c.cost)
+    }
+
+    /// A hint that the driver is about to evaluate pairs among `points`: a model may
+    /// read their state now, in one pass of independent loads, so the cache misses
+    /// overlap instead of being paid one evaluation at a time. Must not change any
+    /// result. Default: nothing.
+    fn prefetch(&self, points: &[u32]) {
+        let _ = points;
+    }
+
     /// Updates the state after `record` was performed (`surface` is already updated).
     fn collapsed(&mut self, surface: &Surface, record: &CollapseRecord);
 

@@ -78,7 +78,7 @@ impl<C: CostModel + ?Sized> Driver<'_, C> {
 
     fn entry_with(&self, a: u32, b: u32, endpoint_only: bool) -> Option<Item> {
         let m = self.moves(a, b, endpoint_only)?;
-        let c = self.cost.evaluate(self.surface, a, b, &m)?;
+        let c = self.cost.evaluate_cost(self.surface, a, b, &m)?;
         Some(
             Item {
                 a,
@@ -86,7 +86,7 @@ impl<C: CostModel + ?Sized> Driver<'_, C> {
                 stamp: self.stamp(a, b, endpoint_only),
                 cost_bits: 0,
             }
-            .with_cost(c.cost),
+            .with_cost(c),
         )
     }
 
@@ -139,6 +139,15 @@ impl<C: CostModel + ?Sized> Driver<'_, C> {
     fn push_around(&mut self, v: u32) {
         let mut nb = std::mem::take(&mut self.scratch);
         self.surface.neighbours(v, &mut nb);
+        // Read the neighbours' state in one pass first: their cache misses then
+        // overlap instead of stalling one evaluation each.
+        self.cost.prefetch(&nb);
+        self.surface.prefetch(&nb);
+        let mut s = 0u32;
+        for &q in &nb {
+            s = s.wrapping_add(self.version[q as usize]);
+        }
+        std::hint::black_box(s);
         for &q in &nb {
             if let Some(e) = self.entry(v, q) {
                 self.heap.push(e);
@@ -296,6 +305,8 @@ pub fn run<C: CostModel + ?Sized>(
             continue;
         }
         let p = c.position.map(|x| x as f32);
+        // Load both fans and their corners before the check walks them.
+        d.surface.prefetch_pair(c.removed, c.kept);
         if let Err(r) = d
             .surface
             .check(c.removed, c.kept, p, &d.limits, &mut preview)
@@ -365,6 +376,10 @@ pub fn run<C: CostModel + ?Sized>(
         }
         let (u, v) = (record.removed, record.kept);
         d.version[v as usize] = d.version[v as usize].wrapping_add(1);
+        // The removed point's entries go stale too: a point only ever dies as the
+        // removed end of a collapse (the operator lets nothing else vanish), so a
+        // matching stamp alone means both points are alive.
+        d.version[u as usize] = d.version[u as usize].wrapping_add(1);
         if !d.partners.is_empty() {
             d.forward[u as usize] = v;
             let moved = std::mem::take(&mut d.partners[u as usize]);
@@ -378,17 +393,20 @@ pub fn run<C: CostModel + ?Sized>(
             }
         }
         d.push_around(v);
+        // The next pop is most likely the current top: start loading its state.
+        if let Some(&n) = d.heap.peek_band() {
+            d.surface.prefetch_start(n.a, n.b);
+            d.cost.prefetch(&[n.a, n.b]);
+            std::hint::black_box(d.version[n.a as usize].wrapping_add(d.version[n.b as usize]));
+        }
         // Drop stale entries once the queue holds more than ~2 entries per live
         // triangle (there are ~1.5 live pairs per triangle): bounds its memory.
         if d.heap.len() > 2 * d.surface.live_triangles() + 4096 {
             let version = &d.version;
-            let surface = &*d.surface;
             d.heap.retain(|e| {
                 let (a, b) = (e.a, e.b);
-                surface.is_alive(a)
-                    && surface.is_alive(b)
-                    && (version[a as usize].wrapping_add(version[b as usize]) << 1) | (e.stamp & 1)
-                        == e.stamp
+                (version[a as usize].wrapping_add(version[b as usize]) << 1) | (e.stamp & 1)
+                    == e.stamp
             });
         }
     }

@@ -181,6 +181,14 @@ impl Heap {
         self.keys.first().map(|&k| (k >> 32) as u32)
     }
 
+    /// The cheapest item of the current band, without refilling (a hint for what
+    /// will probably be popped next).
+    pub(crate) fn peek_band(&self) -> Option<&Item> {
+        self.keys
+            .first()
+            .map(|&k| &self.band[(k & 0xffff_ffff) as usize])
+    }
+
     /// Removes and returns the cheapest item.
     pub(crate) fn pop(&mut self) -> Option<Item> {
         if self.keys.is_empty() {

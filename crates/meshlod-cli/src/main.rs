@@ -7,6 +7,7 @@
 mod heatmap;
 mod info;
 mod measure;
+mod memory;
 mod pm;
 mod simplify;
 

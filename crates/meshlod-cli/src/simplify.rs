@@ -17,6 +17,7 @@
 //! `meshlod::decimate::vertex_removal` (a distance from the input surface to the
 //! output triangle that replaced it).
 
+use crate::memory::{self, MemoryReport, Phases};
 use anyhow::{bail, Context, Result};
 use indicatif::{ProgressBar, ProgressStyle};
 use meshlod::collapse::CollapseRecord;
@@ -195,6 +196,10 @@ struct CliReport {
     /// Clustering details (--method cluster, single mesh).
     #[serde(skip_serializing_if = "Option::is_none")]
     cluster: Option<ClusterStats>,
+    /// Resident memory (Linux only): the peak up to the output being written, and
+    /// the simplifier's share per input triangle.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    memory: Option<MemoryReport>,
 }
 
 /// Progress bar on stderr, advanced by removed triangles.
@@ -307,6 +312,7 @@ pub fn run(args: &SimplifyArgs) -> Result<()> {
     let t0 = Instant::now();
     let scene = read_scene(&args.input)?;
     let read_seconds = t0.elapsed().as_secs_f64();
+    let phases = Phases::after_read();
     let in_format = Format::from_path(&args.input);
     let out_format = Format::from_path(&args.output);
     let is_gltf = |f: Option<Format>| matches!(f, Some(Format::Gltf | Format::Glb));
@@ -346,6 +352,7 @@ pub fn run(args: &SimplifyArgs) -> Result<()> {
         &WriteOptions::default().with_ascii(args.ascii),
     )?;
     let write_seconds = t1.elapsed().as_secs_f64();
+    let memory = phases.report(agg.triangles_in);
     let measure = args.measure.then(|| {
         metrics::hausdorff(
             &scene.flatten(),
@@ -353,7 +360,11 @@ pub fn run(args: &SimplifyArgs) -> Result<()> {
             &SamplingOptions::default(),
         )
     });
-    report(args, &opts, agg, measure, read_seconds, write_seconds)
+    let times = Times {
+        read_seconds,
+        write_seconds,
+    };
+    report(args, &opts, agg, measure, times, memory)
 }
 
 /// `--stream`: cluster the file without loading it (read twice), write, report.
@@ -367,6 +378,12 @@ fn run_stream(args: &SimplifyArgs, opts: &SimplifyOptions) -> Result<()> {
         &WriteOptions::default().with_ascii(args.ascii),
     )?;
     let write_seconds = t1.elapsed().as_secs_f64();
+    // The peak so far: reading is part of the run here.
+    let memory = memory::rss().map(|r| MemoryReport {
+        peak_rss_bytes: r.peak,
+        input_rss_bytes: None,
+        extra_bytes_per_input_triangle: None,
+    });
     // Measuring needs the input in memory.
     let measure = if args.measure {
         let input = read_scene(&args.input)?.flatten();
@@ -378,7 +395,17 @@ fn run_stream(args: &SimplifyArgs, opts: &SimplifyOptions) -> Result<()> {
     } else {
         None
     };
-    report(args, opts, agg, measure, 0.0, write_seconds)
+    let times = Times {
+        read_seconds: 0.0,
+        write_seconds,
+    };
+    report(args, opts, agg, measure, times, memory)
+}
+
+/// Reading and writing times (seconds).
+struct Times {
+    read_seconds: f64,
+    write_seconds: f64,
 }
 
 fn report(
@@ -386,9 +413,13 @@ fn report(
     opts: &SimplifyOptions,
     agg: Aggregate,
     measure: Option<Distances>,
-    read_seconds: f64,
-    write_seconds: f64,
+    times: Times,
+    memory: Option<MemoryReport>,
 ) -> Result<()> {
+    let Times {
+        read_seconds,
+        write_seconds,
+    } = times;
     let rel = if agg.diag > 0.0 {
         agg.error_absolute / agg.diag
     } else {
@@ -437,6 +468,7 @@ fn report(
         non_manifold_edges: agg.cluster.as_ref().map(|c| c.non_manifold_edges),
         non_manifold_vertices: agg.cluster.as_ref().map(|c| c.non_manifold_vertices),
         cluster: agg.cluster,
+        memory,
     };
     if args.json {
         println!("{}", serde_json::to_string(&report)?);
@@ -643,4 +675,15 @@ fn print_text(r: &CliReport) {
         "  time         {:.3} s simplify, {:.3} s read, {:.3} s write",
         r.seconds, r.read_seconds, r.write_seconds
     );
+    if let Some(m) = &r.memory {
+        let mib = |b: u64| b as f64 / (1024.0 * 1024.0);
+        match m.extra_bytes_per_input_triangle {
+            Some(extra) => println!(
+                "  memory       peak {:.1} MiB resident; simplifying added {:.0} bytes per input triangle",
+                mib(m.peak_rss_bytes),
+                extra
+            ),
+            None => println!("  memory       peak {:.1} MiB resident", mib(m.peak_rss_bytes)),
+        }
+    }
 }

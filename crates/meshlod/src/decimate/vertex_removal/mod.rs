@@ -236,6 +236,11 @@ struct Plan {
     delta: f64,
     /// The loop-level edge check of the plan (see `VertexRemoval::check_loop`).
     loop_check: LoopCheck,
+    /// Left by `VertexRemoval::evaluate_bound` for `VertexRemoval::evaluate_plan`:
+    /// the loop's shape, the unit average normal and the largest bound of the fan.
+    shape: Option<Shape>,
+    n_avg: [f64; 3],
+    e_fan: f64,
 }
 
 /// One point's record.
@@ -283,6 +288,23 @@ enum Mode {
     Geometry,
     /// The whole plan with every check.
     Full,
+}
+
+/// A plan kept with a queued exact key: it stays valid while the point's version
+/// (its fan) is unchanged, since a plan is a function of the fan's triangles alone.
+/// The new triangles and the diagonals live in `VertexRemoval::kept_tris` and
+/// `VertexRemoval::kept_diagonals`.
+#[derive(Debug, Clone, Copy, Default)]
+struct KeptPlan {
+    valid: bool,
+    version: u32,
+    tris_at: u32,
+    diagonals_at: u32,
+    tris: u8,
+    diagonals: u8,
+    loop_check: LoopCheck,
+    cost: f64,
+    delta: f64,
 }
 
 /// The loop-level check of a plan that needs the mesh's edges.
@@ -351,6 +373,11 @@ pub struct VertexRemoval {
     rejections: Rejections,
     /// Queue key: the accumulated bound (with a maximum error) or the step's `δ`.
     order_by_bound: bool,
+    /// Per point: the plan behind its queued exact key (see [`KeptPlan`]), and the
+    /// arenas of those plans' triangles and diagonals.
+    kept: Vec<KeptPlan>,
+    kept_tris: Vec<NewTri>,
+    kept_diagonals: Vec<[u8; 2]>,
 }
 
 #[inline]
@@ -447,6 +474,9 @@ impl VertexRemoval {
             gen: 0,
             rejections: Rejections::default(),
             order_by_bound: options.stop.max_error.is_some(),
+            kept: vec![KeptPlan::default(); np],
+            kept_tris: Vec::new(),
+            kept_diagonals: Vec::new(),
         };
         s.build_fans();
         s
@@ -756,8 +786,18 @@ impl VertexRemoval {
     /// `plan.delta` and `plan.cost` are then lower bounds of the full values (`δ`
     /// includes the Schroeder distance), and no triangles are planned.
     fn evaluate(&mut self, v: u32, mode: Mode) -> Result<(), Refusal> {
-        let full = mode != Mode::Cheap;
-        let checks = mode == Mode::Full;
+        self.evaluate_bound(v)?;
+        if mode == Mode::Cheap {
+            return Ok(());
+        }
+        self.evaluate_plan(mode == Mode::Full)
+    }
+
+    /// The first part of [`Self::evaluate`]: classification, average plane and the
+    /// lower bounds of the key (`plan.cost`, `plan.delta`); what the second part,
+    /// [`Self::evaluate_plan`], needs is left in `plan`.
+    fn evaluate_bound(&mut self, v: u32) -> Result<(), Refusal> {
+        self.plan.shape = None;
         self.plan.loop_check = LoopCheck::None;
         if self.pt[v as usize].locked {
             return Err(Refusal::Kind);
@@ -840,11 +880,27 @@ impl VertexRemoval {
         for &t in &self.plan.tris {
             e_fan = e_fan.max(self.tri[t as usize].err);
         }
-        if !full {
-            self.plan.cost = e_fan + schroeder;
-            self.plan.delta = schroeder;
-            return Ok(());
-        }
+        self.plan.cost = e_fan + schroeder;
+        self.plan.delta = schroeder;
+        self.plan.shape = Some(shape);
+        self.plan.n_avg = n_avg;
+        self.plan.e_fan = e_fan;
+        Ok(())
+    }
+
+    /// The second part of [`Self::evaluate`], after a successful
+    /// [`Self::evaluate_bound`]: the triangulation and the exact key, with the checks
+    /// against existing edges when `checks`.
+    fn evaluate_plan(&mut self, checks: bool) -> Result<(), Refusal> {
+        let Some(shape) = self.plan.shape else {
+            return Err(Refusal::Kind);
+        };
+        let features = shape.features;
+        let open = !self.plan.closed;
+        let m = self.plan.q.len();
+        let n_avg = self.plan.n_avg;
+        let e_fan = self.plan.e_fan;
+        let schroeder = self.plan.delta;
         let group_of = |s: &Self, t: u32| s.tri[t as usize].group;
         self.plan.origin.clear();
         self.plan.origin_sum = [0.0; 3];
@@ -1284,6 +1340,80 @@ impl VertexRemoval {
         self.fan_garbage = 0;
     }
 
+    /// Keeps the evaluated plan of `v` (made without the edge checks or with them)
+    /// for its queued exact key.
+    fn keep_plan(&mut self, v: u32) {
+        let np = self.pt.len();
+        if self.kept_tris.len() > 16 * np + 4096 {
+            // Drop the plans of points whose fan changed since.
+            let (tris, diagonals) = (
+                std::mem::take(&mut self.kept_tris),
+                std::mem::take(&mut self.kept_diagonals),
+            );
+            for (p, k) in self.kept.iter_mut().enumerate() {
+                if !k.valid || k.version != self.pt[p].version {
+                    k.valid = false;
+                    continue;
+                }
+                let (t, d) = (k.tris_at as usize, k.diagonals_at as usize);
+                k.tris_at = self.kept_tris.len() as u32;
+                k.diagonals_at = self.kept_diagonals.len() as u32;
+                self.kept_tris
+                    .extend_from_slice(&tris[t..t + usize::from(k.tris)]);
+                self.kept_diagonals
+                    .extend_from_slice(&diagonals[d..d + usize::from(k.diagonals)]);
+            }
+        }
+        let plan = &self.plan;
+        self.kept[v as usize] = KeptPlan {
+            valid: true,
+            version: self.pt[v as usize].version,
+            tris_at: self.kept_tris.len() as u32,
+            diagonals_at: self.kept_diagonals.len() as u32,
+            tris: plan.out.len() as u8,
+            diagonals: plan.diagonals.len() as u8,
+            loop_check: plan.loop_check,
+            cost: plan.cost,
+            delta: plan.delta,
+        };
+        self.kept_tris.extend_from_slice(&plan.out);
+        self.kept_diagonals.extend_from_slice(&plan.diagonals);
+    }
+
+    /// Makes the kept plan of `v` the current plan (as an evaluation in
+    /// [`Mode::Geometry`] would); `false` when there is none for its current fan.
+    fn restore_plan(&mut self, v: u32) -> bool {
+        let k = self.kept[v as usize];
+        if !k.valid || k.version != self.pt[v as usize].version {
+            return false;
+        }
+        self.kept[v as usize].valid = false;
+        if self.build_loop(v).is_err() {
+            return false;
+        }
+        let plan = &mut self.plan;
+        let m = plan.q.len();
+        plan.adj.clear();
+        plan.adj.resize(m, 0);
+        plan.adj_done = 0;
+        plan.out.clear();
+        let t = k.tris_at as usize;
+        plan.out
+            .extend_from_slice(&self.kept_tris[t..t + usize::from(k.tris)]);
+        plan.diagonals.clear();
+        let d = k.diagonals_at as usize;
+        plan.diagonals
+            .extend_from_slice(&self.kept_diagonals[d..d + usize::from(k.diagonals)]);
+        plan.loop_check = k.loop_check;
+        plan.cost = k.cost;
+        plan.delta = k.delta;
+        plan.origin_sum = [0.0; 3];
+        for &t in &plan.tris {
+            plan.origin_sum = add(plan.origin_sum, self.tri[t as usize].origin);
+        }
+        true
+    }
+
     /// [`Plan::adjacent`] for the current plan.
     fn loop_adjacent(&mut self, i: usize, j: usize) -> bool {
         let links = Links {
@@ -1315,20 +1445,32 @@ impl VertexRemoval {
         }
     }
 
-    /// Queues `v` with the cheap lower bound of its key (`b = 0`).
-    fn push(&mut self, heap: &mut Heap, v: u32) {
-        match self.evaluate(v, Mode::Cheap) {
-            Ok(()) => heap.push(
-                Item {
-                    a: v,
-                    b: 0,
-                    stamp: self.pt[v as usize].version,
-                    cost_bits: 0,
-                }
-                .with_cost(self.key()),
-            ),
-            Err(r) => self.count(r),
+    /// Queues `v` with the cheap lower bound of its key (`b = 0`), or, when that
+    /// bound is below `plan_below` (the point would be next out of the queue), plans
+    /// it at once (without the edge checks) and queues its exact key (`b = 1`) with
+    /// the plan kept.
+    fn push(&mut self, heap: &mut Heap, v: u32, plan_below: u32) {
+        let item = Item {
+            a: v,
+            b: 0,
+            stamp: self.pt[v as usize].version,
+            cost_bits: 0,
+        };
+        if let Err(r) = self.evaluate_bound(v) {
+            self.count(r);
+            return;
         }
+        let bound = item.with_cost(self.key());
+        if bound.cost_bits >= plan_below {
+            heap.push(bound);
+            return;
+        }
+        if let Err(r) = self.evaluate_plan(false) {
+            self.count(r);
+            return;
+        }
+        self.keep_plan(v);
+        heap.push(Item { b: 1, ..item }.with_cost(self.key()));
     }
 
     /// Removes points, cheapest first, until the stop rule holds or nothing can be
@@ -1359,7 +1501,7 @@ impl VertexRemoval {
         if self.live > target {
             for v in 0..self.pt.len() as u32 {
                 if self.pt[v as usize].len > 0 {
-                    self.push(&mut heap, v);
+                    self.push(&mut heap, v, 0);
                 }
             }
         }
@@ -1379,26 +1521,33 @@ impl VertexRemoval {
             // An entry with a lower bound (`b = 0`) is planned without the edge
             // checks first: most such plans are queued again with their exact key
             // (below) and invalidated by a neighbour's removal before they come
-            // back, so the checks are left to the plans that are used.
-            let mode = if item.b == 0 {
+            // back, so the checks are left to the plans that are used. An entry
+            // with its exact key (`b = 1`) has its plan kept.
+            let mode = if item.b == 1 && self.restore_plan(v) {
                 Mode::Geometry
             } else {
-                Mode::Full
+                let mode = if item.b == 0 {
+                    Mode::Geometry
+                } else {
+                    Mode::Full
+                };
+                if let Err(r) = self.evaluate(v, mode) {
+                    self.count(r);
+                    continue;
+                }
+                // The entry held a lower bound (or a key planned without the edge
+                // checks): if the exact key is above the next entry, queue it again
+                // with the exact key (best-first stays exact) and keep the plan.
+                let exact = Item { b: 1, ..item }.with_cost(self.key());
+                if exact.cost_bits > item.cost_bits
+                    && heap.peek_cost_bits().is_some_and(|c| c < exact.cost_bits)
+                {
+                    self.keep_plan(v);
+                    heap.push(exact);
+                    continue;
+                }
+                mode
             };
-            if let Err(r) = self.evaluate(v, mode) {
-                self.count(r);
-                continue;
-            }
-            // The entry held a lower bound (or a key planned without the edge
-            // checks): if the exact key is above the next entry, queue it again with
-            // the exact key (best-first stays exact).
-            let exact = Item { b: 1, ..item }.with_cost(self.key());
-            if exact.cost_bits > item.cost_bits
-                && heap.peek_cost_bits().is_some_and(|c| c < exact.cost_bits)
-            {
-                heap.push(exact);
-                continue;
-            }
             if mode == Mode::Geometry {
                 match self.deferred_checks_pass() {
                     Ok(true) => {}
@@ -1411,6 +1560,7 @@ impl VertexRemoval {
                         }
                         let exact = Item { b: 1, ..item }.with_cost(self.key());
                         if heap.peek_cost_bits().is_some_and(|c| c < exact.cost_bits) {
+                            self.keep_plan(v);
                             heap.push(exact);
                             continue;
                         }
@@ -1433,8 +1583,11 @@ impl VertexRemoval {
             if removed % 4096 == 0 {
                 observer.progress(self.live);
             }
+            // Loop points whose bound is below every queued key are planned at once
+            // (they would be next out of the queue), sparing a second classification.
+            let next = heap.peek_cost_bits().unwrap_or(u32::MAX);
             for &q in &loop_pts {
-                self.push(&mut heap, q);
+                self.push(&mut heap, q, next);
             }
         }
         observer.progress(self.live);

@@ -727,7 +727,7 @@ impl VertexRemoval {
                 || self.tri[t0 as usize].group != self.tri[t1 as usize].group;
             let n0 = plan.normal[(i + nt - 1) % nt];
             let n1 = plan.normal[i];
-            let crease = dot(n0, n1) < self.cos_feature * norm(n0) * norm(n1);
+            let crease = dot(n0, n1) < self.cos_feature * (dot(n0, n0) * dot(n1, n1)).sqrt();
             if is_seam {
                 if ns < 2 {
                     seams[ns] = i;
@@ -1023,6 +1023,8 @@ impl VertexRemoval {
             uv[k] = [dot(*p, e1), dot(*p, e2)];
         }
         let mut poly = [0u8; MAX_VALENCE + 1];
+        let mut w_all = [[0.0f64; 2]; MAX_VALENCE + 1];
+        let mut forbid = [0u64; MAX_VALENCE + 1];
         while let Some((off, len)) = plan.stack.pop() {
             let len = len as usize;
             poly[..len].copy_from_slice(&plan.polys[off as usize..off as usize + len]);
@@ -1070,14 +1072,13 @@ impl VertexRemoval {
             }
             // Best split line; existing edges are checked for the winner only (and
             // the search repeated without it when it is one).
-            let mut forbid = [0u64; MAX_VALENCE + 1];
+            forbid[..len].fill(0);
+            for (k, &pk) in poly.iter().enumerate() {
+                w_all[k] = uv[pk as usize];
+            }
+            let w = &w_all[..len];
             let best = loop {
                 let mut best: Option<(f64, usize, usize)> = None;
-                let mut w = [[0.0f64; 2]; MAX_VALENCE + 1];
-                for (k, &pk) in poly.iter().enumerate() {
-                    w[k] = uv[pk as usize];
-                }
-                let w = &w[..len];
                 for i in 0..len {
                     let pi = poly[i] as usize;
                     let a = plan.pos[pi];

@@ -49,6 +49,20 @@
 //! edge it keeps. A simple or corner point whose fan does not project one-to-one onto
 //! its average plane (a fold) is kept.
 //!
+//! # Facing the input
+//! Those checks look at the surface being replaced only. Across a thin part (a horn,
+//! an ear, a wing, a slab) a new triangle between surviving points can pass nearer
+//! the opposite face than the face it replaces, and then faces away from the input
+//! there (its normal and that of the input triangle nearest its centroid point to
+//! opposite sides). Once a removal's accumulated bound `e` reaches [`FACING_FROM`]
+//! of the bounding-box diagonal (below it the replaced surface is that near, and
+//! only a part thinner than twice that could be nearer on its other side), the
+//! planned triangles are tested against the input (a closest-point tree, built on
+//! first use). A removal that leaves more triangles facing away than it removes goes
+//! after every removal that does not (its key is raised above them all, as in the
+//! Melax driver); when only such removals are left the run stops, with a stop
+//! detail that says so, rather than fold thin parts over.
+//!
 //! # Error
 //! Every triangle carries an error bound `e` (0 on input triangles). Removing `v`
 //! has a step distance `δ(v)`: the largest of the Schroeder distance above, the
@@ -80,6 +94,14 @@
 //! points in index order inside a pass, so a pass mixes cheap and expensive removals
 //! under its threshold; the queue costs one heap operation per evaluation.
 //!
+//! Lower bounds are loose (the average-plane distance is about a third of the exact
+//! key, which the gaps of the new patch dominate), so a point's loop neighbours are
+//! often due next after its removal: those whose bound is below every queued key
+//! are planned at once, in the same pass as their bound, and queued with the exact
+//! key. A plan queued with its exact key is kept (it is a function of the point's
+//! fan, so valid while the point's version is unchanged) and performed as kept when
+//! the entry comes out, after the deferred checks below.
+//!
 //! A popped lower-bound entry is planned without the checks against existing edges
 //! (most such plans are queued again with their exact key and invalidated by a
 //! neighbour's removal before they come back); the checks run on the plans about to
@@ -93,6 +115,7 @@ use super::heap::{Heap, Item};
 use super::{Observer, Outcome, Rejections, StopReason, StopRule};
 use crate::collapse::{Surface, DEAD};
 use crate::mesh::VertexKind;
+use crate::metrics::bvh::Bvh;
 use crate::metrics::triangle::closest_point;
 use crate::quadric::{cross, dot, sub};
 use serde::Serialize;
@@ -103,6 +126,12 @@ pub type TriangleLists = (Vec<[u32; 3]>, Vec<[u32; 3]>, Option<Vec<u32>>);
 
 /// Largest fan (number of triangles around a point) that is considered for removal.
 pub const MAX_VALENCE: usize = 63;
+
+/// Removals whose accumulated bound `e` reaches this fraction of the bounding-box
+/// diagonal are checked against the input surface (module docs, "Facing the
+/// input"): below it a new triangle is that near the surface it replaced, and only a
+/// part thinner than twice that could be nearer on its other side.
+pub const FACING_FROM: f64 = 2e-3;
 
 /// The default feature angle in degrees (`vtkDecimatePro`'s default).
 pub const DEFAULT_FEATURE_ANGLE: f64 = 15.0;
@@ -241,6 +270,9 @@ struct Plan {
     shape: Option<Shape>,
     n_avg: [f64; 3],
     e_fan: f64,
+    /// Bit `i`: new triangle `out[i]` faces away from the input (set by
+    /// `VertexRemoval::more_facing_away`).
+    away: u64,
 }
 
 /// One point's record.
@@ -378,6 +410,16 @@ pub struct VertexRemoval {
     kept: Vec<KeptPlan>,
     kept_tris: Vec<NewTri>,
     kept_diagonals: Vec<[u8; 2]>,
+    /// The input surface for the facing test (points and twice-area normals of the
+    /// input triangles; the tree is built on first use), per triangle slot whether
+    /// its live triangle faces away from the input, the accumulated bound from which
+    /// removals are tested, and the key added per extra triangle facing away.
+    input_tri: Vec<[u32; 3]>,
+    input_normal: Vec<[f64; 3]>,
+    input_tree: Option<Bvh>,
+    away: Vec<bool>,
+    facing_from: f64,
+    facing_tier: f64,
 }
 
 #[inline]
@@ -460,7 +502,16 @@ impl VertexRemoval {
                 }
             })
             .collect();
+        let input_tri = tri.iter().map(|t| t.p).collect();
+        let input_normal = tri.iter().map(|t| t.origin).collect();
         let mut s = Self {
+            input_tri,
+            input_normal,
+            input_tree: None,
+            away: vec![false; tri.len()],
+            // Above every plain key (a distance within the model, or a sum of a few).
+            facing_tier: 16.0 * surface.diagonal() + 1.0,
+            facing_from: FACING_FROM * surface.diagonal(),
             pt,
             live: tri.len(),
             tri,
@@ -1297,8 +1348,12 @@ impl VertexRemoval {
         for &q in &plan.q {
             self.fan_prune(q);
         }
+        for &t in &plan.tris {
+            self.away[t as usize] = false;
+        }
         for (slot, nt) in plan.out.iter().enumerate() {
             let t = plan.tris[slot];
+            self.away[t as usize] = plan.away & (1u64 << slot) != 0;
             let pts = nt.corner.map(|k| plan.q[k as usize]);
             self.tri[t as usize] = Tri {
                 p: pts,
@@ -1415,6 +1470,48 @@ impl VertexRemoval {
         true
     }
 
+    /// How many more of the planned triangles face away from the input than of the
+    /// triangles they replace (0 below [`FACING_FROM`]); marks them in `plan.away`.
+    /// A triangle faces away when its normal and that of the input triangle nearest
+    /// to its centroid point to opposite sides.
+    fn more_facing_away(&mut self) -> usize {
+        self.plan.away = 0;
+        if self.plan.cost < self.facing_from || self.plan.out.is_empty() {
+            return 0;
+        }
+        if self.input_tree.is_none() {
+            let pos: Vec<[f32; 3]> = self
+                .pt
+                .iter()
+                .map(|p| p.pos.map(|x| x as f32))
+                .collect();
+            self.input_tree = Some(Bvh::build(&pos, &self.input_tri));
+        }
+        let Some(tree) = &self.input_tree else {
+            return 0;
+        };
+        let plan = &mut self.plan;
+        let before = plan
+            .tris
+            .iter()
+            .filter(|&&t| self.away[t as usize])
+            .count();
+        let hint = plan.tris.first().copied();
+        let mut after = 0usize;
+        for (i, t) in plan.out.iter().enumerate() {
+            let [a, b, c] = t.corner.map(|k| self.pt[plan.q[k as usize] as usize].pos);
+            let n = cross(sub(b, a), sub(c, a));
+            let centroid = scale(add(add(a, b), c), 1.0 / 3.0);
+            if let Some(cl) = tree.closest(centroid, hint) {
+                if dot(n, self.input_normal[cl.triangle as usize]) < 0.0 {
+                    plan.away |= 1u64 << i;
+                    after += 1;
+                }
+            }
+        }
+        after.saturating_sub(before)
+    }
+
     /// [`Plan::adjacent`] for the current plan.
     fn loop_adjacent(&mut self, i: usize, j: usize) -> bool {
         let links = Links {
@@ -1508,12 +1605,19 @@ impl VertexRemoval {
         }
         let mut removed = 0usize;
         let mut over_error = false;
+        let mut facing_stop = false;
         let mut loop_pts = Vec::new();
         while self.live > target {
             let Some(item) = heap.pop() else { break };
             let v = item.a;
             if item.stamp != self.pt[v as usize].version || self.pt[v as usize].len == 0 {
                 continue;
+            }
+            // Only removals that turn more triangles away from the input are left:
+            // stop rather than fold thin parts over.
+            if item.b == 2 {
+                facing_stop = true;
+                break;
             }
             if self.order_by_bound && f64::from(f32::from_bits(item.cost_bits)) > max_error {
                 over_error = true;
@@ -1524,7 +1628,7 @@ impl VertexRemoval {
             // (below) and invalidated by a neighbour's removal before they come
             // back, so the checks are left to the plans that are used. An entry
             // with its exact key (`b = 1`) has its plan kept.
-            let mode = if item.b == 1 && self.restore_plan(v) {
+            let mode = if item.b >= 1 && self.restore_plan(v) {
                 Mode::Geometry
             } else {
                 let mode = if item.b == 0 {
@@ -1572,6 +1676,20 @@ impl VertexRemoval {
                     }
                 }
             }
+            // A removal leaving more triangles facing away from the input goes after
+            // every removal that does not (queued again with a key above them all).
+            let extra = self.more_facing_away();
+            if extra > 0 {
+                let last = Item { b: 2, ..item }
+                    .with_cost(self.key() + self.facing_tier * extra as f64);
+                if last.cost_bits > item.cost_bits
+                    && heap.peek_cost_bits().is_some_and(|c| c < last.cost_bits)
+                {
+                    self.keep_plan(v);
+                    heap.push(last);
+                    continue;
+                }
+            }
             if self.plan.cost > max_error {
                 self.rejections.max_error += 1;
                 continue;
@@ -1598,6 +1716,13 @@ impl VertexRemoval {
             outcome.stop_reason = StopReason::TargetReached;
             outcome.stop_detail = format!(
                 "{} triangles left, target {target}, after removing {removed} points",
+                self.live
+            );
+        } else if facing_stop {
+            outcome.stop_reason = StopReason::NoLegalCollapse;
+            outcome.stop_detail = format!(
+                "every remaining removal would leave more triangles facing away from the \
+                 input surface (a thin part folding over); {} triangles left, target {target}",
                 self.live
             );
         } else if over_error || self.rejections.max_error > 0 {

@@ -152,3 +152,51 @@ fn cube_corners_kept_on_request() {
     assert_eq!(vr.live_triangles(), 12);
     assert!(out.max_error < 1e-12);
 }
+
+/// Live triangles of `vr` facing away from the input triangle nearest their centroid.
+fn facing_away(vr: &VertexRemoval) -> usize {
+    let pos: Vec<[f32; 3]> = vr.pt.iter().map(|p| p.pos.map(|x| x as f32)).collect();
+    let tree = Bvh::build(&pos, &vr.input_tri);
+    let (_, points, _) = vr.output_triangles();
+    points
+        .iter()
+        .filter(|t| {
+            let [a, b, c] = t.map(|p| vr.pt[p as usize].pos);
+            let n = cross(sub(b, a), sub(c, a));
+            let centroid = scale(add(add(a, b), c), 1.0 / 3.0);
+            tree.closest(centroid, None)
+                .is_some_and(|cl| dot(n, vr.input_normal[cl.triangle as usize]) < 0.0)
+        })
+        .count()
+}
+
+/// A sphere squashed into a thin disc: at coarse levels chords cross from the top
+/// to the bottom face. With the facing test (module docs, "Facing the input") the
+/// result keeps facing the input; without it (its threshold set out of reach) many
+/// triangles face away.
+#[test]
+fn thin_disc_keeps_facing_the_input() {
+    let mut disc = generate::icosphere(4);
+    for p in &mut disc.positions {
+        p[2] *= 0.03;
+    }
+    let options = VertexRemovalOptions {
+        stop: StopRule {
+            target_triangles: 60,
+            max_error: None,
+        },
+        ..VertexRemovalOptions::default()
+    };
+    let mut counts = Vec::new();
+    for guard in [false, true] {
+        let mut vr = remover(&disc, options);
+        if !guard {
+            vr.facing_from = f64::INFINITY;
+        }
+        let out = vr.run(&mut NoObserver);
+        counts.push((facing_away(&vr), vr.live_triangles(), out.stop_reason));
+    }
+    eprintln!("facing away, triangles, stop without / with the test: {counts:?}");
+    assert!(counts[0].0 >= 5, "the disc should fold without the test: {counts:?}");
+    assert!(counts[1].0 <= 1, "{counts:?}");
+}

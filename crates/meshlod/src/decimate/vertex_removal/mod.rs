@@ -1501,7 +1501,17 @@ impl VertexRemoval {
         for (i, t) in plan.out.iter().enumerate() {
             let [a, b, c] = t.corner.map(|k| self.pt[plan.q[k as usize] as usize].pos);
             let n = cross(sub(b, a), sub(c, a));
-            let centroid = scale(add(add(a, b), c), 1.0 / 3.0);
+            let ln = norm(n);
+            if ln == 0.0 {
+                continue;
+            }
+            // The centroid, nudged along the normal by a hundredth of the threshold:
+            // a point midway between two faces (the first cut of an octahedron) is
+            // nearest to the face on the side it faces, not to either of a tie.
+            let centroid = add(
+                scale(add(add(a, b), c), 1.0 / 3.0),
+                scale(n, 0.01 * self.facing_from / ln),
+            );
             if let Some(cl) = tree.closest(centroid, hint) {
                 if dot(n, self.input_normal[cl.triangle as usize]) < 0.0 {
                     plan.away |= 1u64 << i;

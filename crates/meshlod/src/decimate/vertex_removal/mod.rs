@@ -1480,22 +1480,14 @@ impl VertexRemoval {
             return 0;
         }
         if self.input_tree.is_none() {
-            let pos: Vec<[f32; 3]> = self
-                .pt
-                .iter()
-                .map(|p| p.pos.map(|x| x as f32))
-                .collect();
+            let pos: Vec<[f32; 3]> = self.pt.iter().map(|p| p.pos.map(|x| x as f32)).collect();
             self.input_tree = Some(Bvh::build(&pos, &self.input_tri));
         }
         let Some(tree) = &self.input_tree else {
             return 0;
         };
         let plan = &mut self.plan;
-        let before = plan
-            .tris
-            .iter()
-            .filter(|&&t| self.away[t as usize])
-            .count();
+        let before = plan.tris.iter().filter(|&&t| self.away[t as usize]).count();
         let hint = plan.tris.first().copied();
         let mut after = 0usize;
         for (i, t) in plan.out.iter().enumerate() {
@@ -1690,8 +1682,8 @@ impl VertexRemoval {
             // every removal that does not (queued again with a key above them all).
             let extra = self.more_facing_away();
             if extra > 0 {
-                let last = Item { b: 2, ..item }
-                    .with_cost(self.key() + self.facing_tier * extra as f64);
+                let last =
+                    Item { b: 2, ..item }.with_cost(self.key() + self.facing_tier * extra as f64);
                 if last.cost_bits > item.cost_bits
                     && heap.peek_cost_bits().is_some_and(|c| c < last.cost_bits)
                 {

@@ -16,26 +16,6 @@ use meshlod::mesh::{Mesh, MeshStats};
 use meshlod::metrics::bvh::Bvh;
 use meshlod::simplify::{simplify, simplify_observed, Method, Report, SimplifyOptions, StopReason};
 
-/// Meshes whose "flipped" count at 1% is a known limit of vertex removal, checked
-/// against a looser bound ([`THIN_PART_FLIP_FRACTION`]) instead of 3%.
-///
-/// Vertex removal keeps input vertices, so at 1% the new triangles are chords between
-/// surviving vertices; across thin parts (the cow's horns and ears, spot's ears,
-/// camelhead's ears, lucy's wings and torch, plane_holes' thin slab) a chord lies
-/// inside the material, nearer the opposite face, and the measure counts it flipped
-/// although it faces the side of the input it replaces (every new triangle is checked
-/// against the summed input normals it stands for). QEM moves vertices and avoids most.
-const THIN_PART_FLIPS: &[&str] = &[
-    "common-3d-test-models/cow.obj @ 0.01",
-    "common-3d-test-models/spot.obj @ 0.01",
-    "libigl-tutorial-data/camelhead.off @ 0.01",
-    "odedstein-meshes/plane_holes.obj @ 0.01",
-    "vtk-data/lucy.ply @ 0.01",
-];
-
-/// The flipped fraction allowed for [`THIN_PART_FLIPS`].
-const THIN_PART_FLIP_FRACTION: f64 = 0.15;
-
 /// The shared QEM test's known problem (see `simplify_shared.rs`): almost every
 /// vertex of pizza.obj is on a UV seam and the slab is thin.
 const KNOWN_FLIPS: &[&str] = &["odedstein-meshes/pizza.obj"];
@@ -96,12 +76,7 @@ fn check(
     } else {
         0
     };
-    let allowed = if THIN_PART_FLIPS.contains(&name) {
-        THIN_PART_FLIP_FRACTION
-    } else {
-        0.03
-    };
-    if f as f64 > (allowed * got).max(5.0) {
+    if f as f64 > (0.03 * got).max(5.0) {
         bad.push(format!("{name}: {f} of {got} triangles flipped"));
     }
     bad

@@ -49,6 +49,20 @@
 //! edge it keeps. A simple or corner point whose fan does not project one-to-one onto
 //! its average plane (a fold) is kept.
 //!
+//! # Facing the input
+//! Those checks look at the surface being replaced only. Across a thin part (a horn,
+//! an ear, a wing, a slab) a new triangle between surviving points can pass nearer
+//! the opposite face than the face it replaces, and then faces away from the input
+//! there (its normal and that of the input triangle nearest its centroid point to
+//! opposite sides). Once a removal's accumulated bound `e` reaches [`FACING_FROM`]
+//! of the bounding-box diagonal (below it the replaced surface is that near, and
+//! only a part thinner than twice that could be nearer on its other side), the
+//! planned triangles are tested against the input (a closest-point tree, built on
+//! first use). A removal that leaves more triangles facing away than it removes goes
+//! after every removal that does not (its key is raised above them all, as in the
+//! Melax driver); when only such removals are left the run stops, with a stop
+//! detail that says so, rather than fold thin parts over.
+//!
 //! # Error
 //! Every triangle carries an error bound `e` (0 on input triangles). Removing `v`
 //! has a step distance `δ(v)`: the largest of the Schroeder distance above, the
@@ -80,6 +94,14 @@
 //! points in index order inside a pass, so a pass mixes cheap and expensive removals
 //! under its threshold; the queue costs one heap operation per evaluation.
 //!
+//! Lower bounds are loose (the average-plane distance is about a third of the exact
+//! key, which the gaps of the new patch dominate), so a point's loop neighbours are
+//! often due next after its removal: those whose bound is below every queued key
+//! are planned at once, in the same pass as their bound, and queued with the exact
+//! key. A plan queued with its exact key is kept (it is a function of the point's
+//! fan, so valid while the point's version is unchanged) and performed as kept when
+//! the entry comes out, after the deferred checks below.
+//!
 //! A popped lower-bound entry is planned without the checks against existing edges
 //! (most such plans are queued again with their exact key and invalidated by a
 //! neighbour's removal before they come back); the checks run on the plans about to
@@ -93,6 +115,7 @@ use super::heap::{Heap, Item};
 use super::{Observer, Outcome, Rejections, StopReason, StopRule};
 use crate::collapse::{Surface, DEAD};
 use crate::mesh::VertexKind;
+use crate::metrics::bvh::Bvh;
 use crate::metrics::triangle::closest_point;
 use crate::quadric::{cross, dot, sub};
 use serde::Serialize;
@@ -103,6 +126,12 @@ pub type TriangleLists = (Vec<[u32; 3]>, Vec<[u32; 3]>, Option<Vec<u32>>);
 
 /// Largest fan (number of triangles around a point) that is considered for removal.
 pub const MAX_VALENCE: usize = 63;
+
+/// Removals whose accumulated bound `e` reaches this fraction of the bounding-box
+/// diagonal are checked against the input surface (module docs, "Facing the
+/// input"): below it a new triangle is that near the surface it replaced, and only a
+/// part thinner than twice that could be nearer on its other side.
+pub const FACING_FROM: f64 = 2e-3;
 
 /// The default feature angle in degrees (`vtkDecimatePro`'s default).
 pub const DEFAULT_FEATURE_ANGLE: f64 = 15.0;
@@ -236,6 +265,14 @@ struct Plan {
     delta: f64,
     /// The loop-level edge check of the plan (see `VertexRemoval::check_loop`).
     loop_check: LoopCheck,
+    /// Left by `VertexRemoval::evaluate_bound` for `VertexRemoval::evaluate_plan`:
+    /// the loop's shape, the unit average normal and the largest bound of the fan.
+    shape: Option<Shape>,
+    n_avg: [f64; 3],
+    e_fan: f64,
+    /// Bit `i`: new triangle `out[i]` faces away from the input (set by
+    /// `VertexRemoval::more_facing_away`).
+    away: u64,
 }
 
 /// One point's record.
@@ -283,6 +320,23 @@ enum Mode {
     Geometry,
     /// The whole plan with every check.
     Full,
+}
+
+/// A plan kept with a queued exact key: it stays valid while the point's version
+/// (its fan) is unchanged, since a plan is a function of the fan's triangles alone.
+/// The new triangles and the diagonals live in `VertexRemoval::kept_tris` and
+/// `VertexRemoval::kept_diagonals`.
+#[derive(Debug, Clone, Copy, Default)]
+struct KeptPlan {
+    valid: bool,
+    version: u32,
+    tris_at: u32,
+    diagonals_at: u32,
+    tris: u8,
+    diagonals: u8,
+    loop_check: LoopCheck,
+    cost: f64,
+    delta: f64,
 }
 
 /// The loop-level check of a plan that needs the mesh's edges.
@@ -351,6 +405,21 @@ pub struct VertexRemoval {
     rejections: Rejections,
     /// Queue key: the accumulated bound (with a maximum error) or the step's `δ`.
     order_by_bound: bool,
+    /// Per point: the plan behind its queued exact key (see [`KeptPlan`]), and the
+    /// arenas of those plans' triangles and diagonals.
+    kept: Vec<KeptPlan>,
+    kept_tris: Vec<NewTri>,
+    kept_diagonals: Vec<[u8; 2]>,
+    /// The input surface for the facing test (points and twice-area normals of the
+    /// input triangles; the tree is built on first use), per triangle slot whether
+    /// its live triangle faces away from the input, the accumulated bound from which
+    /// removals are tested, and the key added per extra triangle facing away.
+    input_tri: Vec<[u32; 3]>,
+    input_normal: Vec<[f64; 3]>,
+    input_tree: Option<Bvh>,
+    away: Vec<bool>,
+    facing_from: f64,
+    facing_tier: f64,
 }
 
 #[inline]
@@ -433,7 +502,16 @@ impl VertexRemoval {
                 }
             })
             .collect();
+        let input_tri = tri.iter().map(|t| t.p).collect();
+        let input_normal = tri.iter().map(|t| t.origin).collect();
         let mut s = Self {
+            input_tri,
+            input_normal,
+            input_tree: None,
+            away: vec![false; tri.len()],
+            // Above every plain key (a distance within the model, or a sum of a few).
+            facing_tier: 16.0 * surface.diagonal() + 1.0,
+            facing_from: FACING_FROM * surface.diagonal(),
             pt,
             live: tri.len(),
             tri,
@@ -447,6 +525,9 @@ impl VertexRemoval {
             gen: 0,
             rejections: Rejections::default(),
             order_by_bound: options.stop.max_error.is_some(),
+            kept: vec![KeptPlan::default(); np],
+            kept_tris: Vec::new(),
+            kept_diagonals: Vec::new(),
         };
         s.build_fans();
         s
@@ -697,7 +778,7 @@ impl VertexRemoval {
                 || self.tri[t0 as usize].group != self.tri[t1 as usize].group;
             let n0 = plan.normal[(i + nt - 1) % nt];
             let n1 = plan.normal[i];
-            let crease = dot(n0, n1) < self.cos_feature * norm(n0) * norm(n1);
+            let crease = dot(n0, n1) < self.cos_feature * (dot(n0, n0) * dot(n1, n1)).sqrt();
             if is_seam {
                 if ns < 2 {
                     seams[ns] = i;
@@ -756,8 +837,18 @@ impl VertexRemoval {
     /// `plan.delta` and `plan.cost` are then lower bounds of the full values (`δ`
     /// includes the Schroeder distance), and no triangles are planned.
     fn evaluate(&mut self, v: u32, mode: Mode) -> Result<(), Refusal> {
-        let full = mode != Mode::Cheap;
-        let checks = mode == Mode::Full;
+        self.evaluate_bound(v)?;
+        if mode == Mode::Cheap {
+            return Ok(());
+        }
+        self.evaluate_plan(mode == Mode::Full)
+    }
+
+    /// The first part of [`Self::evaluate`]: classification, average plane and the
+    /// lower bounds of the key (`plan.cost`, `plan.delta`); what the second part,
+    /// [`Self::evaluate_plan`], needs is left in `plan`.
+    fn evaluate_bound(&mut self, v: u32) -> Result<(), Refusal> {
+        self.plan.shape = None;
         self.plan.loop_check = LoopCheck::None;
         if self.pt[v as usize].locked {
             return Err(Refusal::Kind);
@@ -840,11 +931,27 @@ impl VertexRemoval {
         for &t in &self.plan.tris {
             e_fan = e_fan.max(self.tri[t as usize].err);
         }
-        if !full {
-            self.plan.cost = e_fan + schroeder;
-            self.plan.delta = schroeder;
-            return Ok(());
-        }
+        self.plan.cost = e_fan + schroeder;
+        self.plan.delta = schroeder;
+        self.plan.shape = Some(shape);
+        self.plan.n_avg = n_avg;
+        self.plan.e_fan = e_fan;
+        Ok(())
+    }
+
+    /// The second part of [`Self::evaluate`], after a successful
+    /// [`Self::evaluate_bound`]: the triangulation and the exact key, with the checks
+    /// against existing edges when `checks`.
+    fn evaluate_plan(&mut self, checks: bool) -> Result<(), Refusal> {
+        let Some(shape) = self.plan.shape else {
+            return Err(Refusal::Kind);
+        };
+        let features = shape.features;
+        let open = !self.plan.closed;
+        let m = self.plan.q.len();
+        let n_avg = self.plan.n_avg;
+        let e_fan = self.plan.e_fan;
+        let schroeder = self.plan.delta;
         let group_of = |s: &Self, t: u32| s.tri[t as usize].group;
         self.plan.origin.clear();
         self.plan.origin_sum = [0.0; 3];
@@ -967,6 +1074,8 @@ impl VertexRemoval {
             uv[k] = [dot(*p, e1), dot(*p, e2)];
         }
         let mut poly = [0u8; MAX_VALENCE + 1];
+        let mut w_all = [[0.0f64; 2]; MAX_VALENCE + 1];
+        let mut forbid = [0u64; MAX_VALENCE + 1];
         while let Some((off, len)) = plan.stack.pop() {
             let len = len as usize;
             poly[..len].copy_from_slice(&plan.polys[off as usize..off as usize + len]);
@@ -1014,14 +1123,13 @@ impl VertexRemoval {
             }
             // Best split line; existing edges are checked for the winner only (and
             // the search repeated without it when it is one).
-            let mut forbid = [0u64; MAX_VALENCE + 1];
+            forbid[..len].fill(0);
+            for (k, &pk) in poly.iter().enumerate() {
+                w_all[k] = uv[pk as usize];
+            }
+            let w = &w_all[..len];
             let best = loop {
                 let mut best: Option<(f64, usize, usize)> = None;
-                let mut w = [[0.0f64; 2]; MAX_VALENCE + 1];
-                for (k, &pk) in poly.iter().enumerate() {
-                    w[k] = uv[pk as usize];
-                }
-                let w = &w[..len];
                 for i in 0..len {
                     let pi = poly[i] as usize;
                     let a = plan.pos[pi];
@@ -1240,8 +1348,12 @@ impl VertexRemoval {
         for &q in &plan.q {
             self.fan_prune(q);
         }
+        for &t in &plan.tris {
+            self.away[t as usize] = false;
+        }
         for (slot, nt) in plan.out.iter().enumerate() {
             let t = plan.tris[slot];
+            self.away[t as usize] = plan.away & (1u64 << slot) != 0;
             let pts = nt.corner.map(|k| plan.q[k as usize]);
             self.tri[t as usize] = Tri {
                 p: pts,
@@ -1284,6 +1396,124 @@ impl VertexRemoval {
         self.fan_garbage = 0;
     }
 
+    /// Keeps the evaluated plan of `v` (made without the edge checks or with them)
+    /// for its queued exact key.
+    fn keep_plan(&mut self, v: u32) {
+        let np = self.pt.len();
+        if self.kept_tris.len() > 16 * np + 4096 {
+            // Drop the plans of points whose fan changed since.
+            let (tris, diagonals) = (
+                std::mem::take(&mut self.kept_tris),
+                std::mem::take(&mut self.kept_diagonals),
+            );
+            for (p, k) in self.kept.iter_mut().enumerate() {
+                if !k.valid || k.version != self.pt[p].version {
+                    k.valid = false;
+                    continue;
+                }
+                let (t, d) = (k.tris_at as usize, k.diagonals_at as usize);
+                k.tris_at = self.kept_tris.len() as u32;
+                k.diagonals_at = self.kept_diagonals.len() as u32;
+                self.kept_tris
+                    .extend_from_slice(&tris[t..t + usize::from(k.tris)]);
+                self.kept_diagonals
+                    .extend_from_slice(&diagonals[d..d + usize::from(k.diagonals)]);
+            }
+        }
+        let plan = &self.plan;
+        self.kept[v as usize] = KeptPlan {
+            valid: true,
+            version: self.pt[v as usize].version,
+            tris_at: self.kept_tris.len() as u32,
+            diagonals_at: self.kept_diagonals.len() as u32,
+            tris: plan.out.len() as u8,
+            diagonals: plan.diagonals.len() as u8,
+            loop_check: plan.loop_check,
+            cost: plan.cost,
+            delta: plan.delta,
+        };
+        self.kept_tris.extend_from_slice(&plan.out);
+        self.kept_diagonals.extend_from_slice(&plan.diagonals);
+    }
+
+    /// Makes the kept plan of `v` the current plan (as an evaluation in
+    /// [`Mode::Geometry`] would); `false` when there is none for its current fan.
+    fn restore_plan(&mut self, v: u32) -> bool {
+        let k = self.kept[v as usize];
+        if !k.valid || k.version != self.pt[v as usize].version {
+            return false;
+        }
+        self.kept[v as usize].valid = false;
+        if self.build_loop(v).is_err() {
+            return false;
+        }
+        let plan = &mut self.plan;
+        let m = plan.q.len();
+        plan.adj.clear();
+        plan.adj.resize(m, 0);
+        plan.adj_done = 0;
+        plan.out.clear();
+        let t = k.tris_at as usize;
+        plan.out
+            .extend_from_slice(&self.kept_tris[t..t + usize::from(k.tris)]);
+        plan.diagonals.clear();
+        let d = k.diagonals_at as usize;
+        plan.diagonals
+            .extend_from_slice(&self.kept_diagonals[d..d + usize::from(k.diagonals)]);
+        plan.loop_check = k.loop_check;
+        plan.cost = k.cost;
+        plan.delta = k.delta;
+        plan.origin_sum = [0.0; 3];
+        for &t in &plan.tris {
+            plan.origin_sum = add(plan.origin_sum, self.tri[t as usize].origin);
+        }
+        true
+    }
+
+    /// How many more of the planned triangles face away from the input than of the
+    /// triangles they replace (0 below [`FACING_FROM`]); marks them in `plan.away`.
+    /// A triangle faces away when its normal and that of the input triangle nearest
+    /// to its centroid point to opposite sides.
+    fn more_facing_away(&mut self) -> usize {
+        self.plan.away = 0;
+        if self.plan.cost < self.facing_from || self.plan.out.is_empty() {
+            return 0;
+        }
+        if self.input_tree.is_none() {
+            let pos: Vec<[f32; 3]> = self.pt.iter().map(|p| p.pos.map(|x| x as f32)).collect();
+            self.input_tree = Some(Bvh::build(&pos, &self.input_tri));
+        }
+        let Some(tree) = &self.input_tree else {
+            return 0;
+        };
+        let plan = &mut self.plan;
+        let before = plan.tris.iter().filter(|&&t| self.away[t as usize]).count();
+        let hint = plan.tris.first().copied();
+        let mut after = 0usize;
+        for (i, t) in plan.out.iter().enumerate() {
+            let [a, b, c] = t.corner.map(|k| self.pt[plan.q[k as usize] as usize].pos);
+            let n = cross(sub(b, a), sub(c, a));
+            let ln = norm(n);
+            if ln == 0.0 {
+                continue;
+            }
+            // The centroid, nudged along the normal by a hundredth of the threshold:
+            // a point midway between two faces (the first cut of an octahedron) is
+            // nearest to the face on the side it faces, not to either of a tie.
+            let centroid = add(
+                scale(add(add(a, b), c), 1.0 / 3.0),
+                scale(n, 0.01 * self.facing_from / ln),
+            );
+            if let Some(cl) = tree.closest(centroid, hint) {
+                if dot(n, self.input_normal[cl.triangle as usize]) < 0.0 {
+                    plan.away |= 1u64 << i;
+                    after += 1;
+                }
+            }
+        }
+        after.saturating_sub(before)
+    }
+
     /// [`Plan::adjacent`] for the current plan.
     fn loop_adjacent(&mut self, i: usize, j: usize) -> bool {
         let links = Links {
@@ -1315,20 +1545,32 @@ impl VertexRemoval {
         }
     }
 
-    /// Queues `v` with the cheap lower bound of its key (`b = 0`).
-    fn push(&mut self, heap: &mut Heap, v: u32) {
-        match self.evaluate(v, Mode::Cheap) {
-            Ok(()) => heap.push(
-                Item {
-                    a: v,
-                    b: 0,
-                    stamp: self.pt[v as usize].version,
-                    cost_bits: 0,
-                }
-                .with_cost(self.key()),
-            ),
-            Err(r) => self.count(r),
+    /// Queues `v` with the cheap lower bound of its key (`b = 0`), or, when that
+    /// bound is below `plan_below` (the point would be next out of the queue), plans
+    /// it at once (without the edge checks) and queues its exact key (`b = 1`) with
+    /// the plan kept.
+    fn push(&mut self, heap: &mut Heap, v: u32, plan_below: u32) {
+        let item = Item {
+            a: v,
+            b: 0,
+            stamp: self.pt[v as usize].version,
+            cost_bits: 0,
+        };
+        if let Err(r) = self.evaluate_bound(v) {
+            self.count(r);
+            return;
         }
+        let bound = item.with_cost(self.key());
+        if bound.cost_bits >= plan_below {
+            heap.push(bound);
+            return;
+        }
+        if let Err(r) = self.evaluate_plan(false) {
+            self.count(r);
+            return;
+        }
+        self.keep_plan(v);
+        heap.push(Item { b: 1, ..item }.with_cost(self.key()));
     }
 
     /// Removes points, cheapest first, until the stop rule holds or nothing can be
@@ -1359,18 +1601,25 @@ impl VertexRemoval {
         if self.live > target {
             for v in 0..self.pt.len() as u32 {
                 if self.pt[v as usize].len > 0 {
-                    self.push(&mut heap, v);
+                    self.push(&mut heap, v, 0);
                 }
             }
         }
         let mut removed = 0usize;
         let mut over_error = false;
+        let mut facing_stop = false;
         let mut loop_pts = Vec::new();
         while self.live > target {
             let Some(item) = heap.pop() else { break };
             let v = item.a;
             if item.stamp != self.pt[v as usize].version || self.pt[v as usize].len == 0 {
                 continue;
+            }
+            // Only removals that turn more triangles away from the input are left:
+            // stop rather than fold thin parts over.
+            if item.b == 2 {
+                facing_stop = true;
+                break;
             }
             if self.order_by_bound && f64::from(f32::from_bits(item.cost_bits)) > max_error {
                 over_error = true;
@@ -1379,26 +1628,33 @@ impl VertexRemoval {
             // An entry with a lower bound (`b = 0`) is planned without the edge
             // checks first: most such plans are queued again with their exact key
             // (below) and invalidated by a neighbour's removal before they come
-            // back, so the checks are left to the plans that are used.
-            let mode = if item.b == 0 {
+            // back, so the checks are left to the plans that are used. An entry
+            // with its exact key (`b = 1`) has its plan kept.
+            let mode = if item.b >= 1 && self.restore_plan(v) {
                 Mode::Geometry
             } else {
-                Mode::Full
+                let mode = if item.b == 0 {
+                    Mode::Geometry
+                } else {
+                    Mode::Full
+                };
+                if let Err(r) = self.evaluate(v, mode) {
+                    self.count(r);
+                    continue;
+                }
+                // The entry held a lower bound (or a key planned without the edge
+                // checks): if the exact key is above the next entry, queue it again
+                // with the exact key (best-first stays exact) and keep the plan.
+                let exact = Item { b: 1, ..item }.with_cost(self.key());
+                if exact.cost_bits > item.cost_bits
+                    && heap.peek_cost_bits().is_some_and(|c| c < exact.cost_bits)
+                {
+                    self.keep_plan(v);
+                    heap.push(exact);
+                    continue;
+                }
+                mode
             };
-            if let Err(r) = self.evaluate(v, mode) {
-                self.count(r);
-                continue;
-            }
-            // The entry held a lower bound (or a key planned without the edge
-            // checks): if the exact key is above the next entry, queue it again with
-            // the exact key (best-first stays exact).
-            let exact = Item { b: 1, ..item }.with_cost(self.key());
-            if exact.cost_bits > item.cost_bits
-                && heap.peek_cost_bits().is_some_and(|c| c < exact.cost_bits)
-            {
-                heap.push(exact);
-                continue;
-            }
             if mode == Mode::Geometry {
                 match self.deferred_checks_pass() {
                     Ok(true) => {}
@@ -1411,6 +1667,7 @@ impl VertexRemoval {
                         }
                         let exact = Item { b: 1, ..item }.with_cost(self.key());
                         if heap.peek_cost_bits().is_some_and(|c| c < exact.cost_bits) {
+                            self.keep_plan(v);
                             heap.push(exact);
                             continue;
                         }
@@ -1419,6 +1676,20 @@ impl VertexRemoval {
                         self.count(r);
                         continue;
                     }
+                }
+            }
+            // A removal leaving more triangles facing away from the input goes after
+            // every removal that does not (queued again with a key above them all).
+            let extra = self.more_facing_away();
+            if extra > 0 {
+                let last =
+                    Item { b: 2, ..item }.with_cost(self.key() + self.facing_tier * extra as f64);
+                if last.cost_bits > item.cost_bits
+                    && heap.peek_cost_bits().is_some_and(|c| c < last.cost_bits)
+                {
+                    self.keep_plan(v);
+                    heap.push(last);
+                    continue;
                 }
             }
             if self.plan.cost > max_error {
@@ -1433,8 +1704,11 @@ impl VertexRemoval {
             if removed % 4096 == 0 {
                 observer.progress(self.live);
             }
+            // Loop points whose bound is below every queued key are planned at once
+            // (they would be next out of the queue), sparing a second classification.
+            let next = heap.peek_cost_bits().unwrap_or(u32::MAX);
             for &q in &loop_pts {
-                self.push(&mut heap, q);
+                self.push(&mut heap, q, next);
             }
         }
         observer.progress(self.live);
@@ -1444,6 +1718,13 @@ impl VertexRemoval {
             outcome.stop_reason = StopReason::TargetReached;
             outcome.stop_detail = format!(
                 "{} triangles left, target {target}, after removing {removed} points",
+                self.live
+            );
+        } else if facing_stop {
+            outcome.stop_reason = StopReason::NoLegalCollapse;
+            outcome.stop_detail = format!(
+                "every remaining removal would leave more triangles facing away from the \
+                 input surface (a thin part folding over); {} triangles left, target {target}",
                 self.live
             );
         } else if over_error || self.rejections.max_error > 0 {

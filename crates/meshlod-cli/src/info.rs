@@ -32,7 +32,7 @@ struct InfoReport<'a> {
 /// The file cannot be read or parsed.
 pub fn run(args: &InfoArgs) -> Result<()> {
     let scene = read_scene(&args.file)?;
-    let mesh = scene.flatten();
+    let mesh = scene.flattened();
     // Topology on world positions welded in f64, so that instances placed by node
     // transforms weld where they truly touch and nowhere else.
     let weld = Weld::exact_f64(&scene.world_positions_f64());

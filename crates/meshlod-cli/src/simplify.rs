@@ -330,11 +330,11 @@ pub fn run(args: &SimplifyArgs) -> Result<()> {
     });
     let mut progress = Progress { bar, start: 0 };
 
-    let flat_diag = scene.flatten().bbox_diagonal();
+    let flat_diag = scene.flattened().bbox_diagonal();
     let (out_scene, agg) = if per_part {
         simplify_parts(&scene, &opts, flat_diag, &mut progress)?
     } else {
-        let mesh = scene.flatten();
+        let mesh = scene.flattened();
         let s = simplify_observed(&mesh, &opts, &mut progress)
             .with_context(|| format!("{}", args.input.display()))?;
         let agg = Aggregate::single(s.report);
@@ -355,8 +355,8 @@ pub fn run(args: &SimplifyArgs) -> Result<()> {
     let memory = phases.report(agg.triangles_in);
     let measure = args.measure.then(|| {
         metrics::hausdorff(
-            &scene.flatten(),
-            &out_scene.flatten(),
+            &scene.flattened(),
+            &out_scene.flattened(),
             &SamplingOptions::default(),
         )
     });

@@ -321,28 +321,35 @@ impl Surface {
         self.fan_garbage = 0;
     }
 
-    /// Rewrites the fan array compactly (after many merged fans were appended).
+    /// Rewrites the fan array compactly (after many merged fans were appended), in
+    /// place: fans move towards the front in the order they are stored, each into a
+    /// region no larger than the one it had (its capacity was at least its length
+    /// plus the slack), so the allocation is kept and reused by later appends instead
+    /// of growing. Each fan keeps its order.
     fn compact_fans(&mut self) {
-        let np = self.pos.len();
-        let total: usize = (0..np)
-            .filter(|&p| self.fan_slot[p].len > 0)
-            .map(|p| (self.fan_slot[p].len + FAN_SLACK) as usize)
-            .sum();
-        let mut fans = Vec::with_capacity(total);
-        for p in 0..np {
-            let l = self.fan_slot[p].len;
-            if l == 0 {
-                self.fan_slot[p].start = fans.len() as u32;
-                self.fan_slot[p].cap = 0;
-                continue;
-            }
-            let s = self.fan_slot[p].start as usize;
-            self.fan_slot[p].start = fans.len() as u32;
-            fans.extend_from_slice(&self.fans[s..s + l as usize]);
-            fans.extend(std::iter::repeat_n(DEAD, FAN_SLACK as usize));
-            self.fan_slot[p].cap = l + FAN_SLACK;
+        let mut order: Vec<u32> = (0..self.pos.len() as u32)
+            .filter(|&p| self.fan_slot[p as usize].len > 0)
+            .collect();
+        order.sort_unstable_by_key(|&p| self.fan_slot[p as usize].start);
+        let mut w = 0usize;
+        for &p in &order {
+            let slot = self.fan_slot[p as usize];
+            let (s, l) = (slot.start as usize, slot.len as usize);
+            debug_assert!(w <= s && slot.cap >= slot.len);
+            self.fans.copy_within(s..s + l, w);
+            let cap = (slot.len + FAN_SLACK).min(slot.cap.max(slot.len)) as usize;
+            self.fans[w + l..w + cap].fill(DEAD);
+            self.fan_slot[p as usize].start = w as u32;
+            self.fan_slot[p as usize].cap = cap as u32;
+            w += cap;
         }
-        self.fans = fans;
+        self.fans.truncate(w);
+        for slot in &mut self.fan_slot {
+            if slot.len == 0 {
+                slot.start = w as u32;
+                slot.cap = 0;
+            }
+        }
         self.fan_garbage = 0;
     }
 
@@ -1252,8 +1259,18 @@ impl Surface {
             }
         } else {
             let cap = new_len + new_len / 2 + FAN_SLACK as usize;
-            if self.fan_garbage > self.fans.len() / 4 {
+            // Compact when a quarter is garbage, or instead of growing the
+            // allocation when an eighth is (compacting costs what moving it would).
+            let grows = self.fans.len() + cap > self.fans.capacity();
+            if self.fan_garbage > self.fans.len() / 4
+                || (grows && self.fan_garbage > self.fans.len() / 8)
+            {
                 self.compact_fans();
+            }
+            // Grow by a quarter rather than double: still amortised O(1), and the
+            // array (the largest per-triangle structure) stays near its live size.
+            if self.fans.len() + cap > self.fans.capacity() {
+                self.fans.reserve_exact(cap.max(self.fans.len() / 4));
             }
             let sv = self.fan_slot[v as usize].start as usize;
             let su = self.fan_slot[u as usize].start as usize;

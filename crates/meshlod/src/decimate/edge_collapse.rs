@@ -39,6 +39,8 @@ pub struct EdgeCollapseOptions {
 
 /// Full re-scans allowed after the queue runs dry.
 const MAX_RESCANS: usize = 8;
+/// Queue entries allowed beyond two per live triangle before stale ones are swept.
+const STALE_SLACK: usize = 4096;
 /// Collapses between progress callbacks.
 const PROGRESS_EVERY: usize = 4096;
 
@@ -205,6 +207,7 @@ pub fn run<C: CostModel + ?Sized>(
     observer.started(surface.live_triangles(), stop.target_triangles);
     cost.init(surface);
     let np = surface.point_count();
+    let surface_triangles = surface.live_triangles();
     let mut partners: Vec<Vec<u32>> = Vec::new();
     let mut forward = Vec::new();
     if !options.extra_pairs.is_empty() && options.limits.allow_non_edge {
@@ -222,7 +225,9 @@ pub fn run<C: CostModel + ?Sized>(
         filters,
         limits: options.limits,
         version: vec![0; np],
-        heap: Heap::with_capacity(3 * np),
+        // Room for what the stale-entry sweep below allows (2 per live triangle),
+        // so the overflow list never reallocates on the way.
+        heap: Heap::with_capacity(2 * surface_triangles + STALE_SLACK + 1024),
         partners,
         forward,
         scratch: Vec::new(),
@@ -401,7 +406,7 @@ pub fn run<C: CostModel + ?Sized>(
         }
         // Drop stale entries once the queue holds more than ~2 entries per live
         // triangle (there are ~1.5 live pairs per triangle): bounds its memory.
-        if d.heap.len() > 2 * d.surface.live_triangles() + 4096 {
+        if d.heap.len() > 2 * d.surface.live_triangles() + STALE_SLACK {
             let version = &d.version;
             d.heap.retain(|e| {
                 let (a, b) = (e.a, e.b);

@@ -216,11 +216,22 @@ impl Scene {
     /// offset so groups of different parts stay distinct, and names are merged.
     #[must_use]
     pub fn flatten(&self) -> Mesh {
+        self.flattened().into_owned()
+    }
+
+    /// As [`Self::flatten`], without a copy when the scene is one part drawn once at
+    /// the origin (the usual single-mesh file): then the part's mesh is borrowed.
+    #[must_use]
+    pub fn flattened(&self) -> std::borrow::Cow<'_, Mesh> {
         if let [part] = self.parts.as_slice() {
             if part.instances == [IDENTITY] {
-                return part.mesh.clone();
+                return std::borrow::Cow::Borrowed(&part.mesh);
             }
         }
+        std::borrow::Cow::Owned(self.flatten_parts())
+    }
+
+    fn flatten_parts(&self) -> Mesh {
         let mut out = Mesh::default();
         let mut group_offset = 0u32;
         for part in &self.parts {

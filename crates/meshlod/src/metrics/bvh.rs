@@ -48,6 +48,14 @@ pub struct Bvh {
     slot_of: Vec<u32>,
 }
 
+/// A triangle while the tree is built: its centroid, its box and its id.
+#[derive(Clone, Copy)]
+struct Prim {
+    centroid: [f32; 3],
+    bounds: Aabb,
+    id: u32,
+}
+
 #[derive(Clone, Copy)]
 struct Aabb {
     lo: [f32; 3],
@@ -96,16 +104,21 @@ impl Bvh {
         let centroid = |c: &[[f32; 3]; 3]| -> [f32; 3] {
             std::array::from_fn(|k| (c[0][k] + c[1][k] + c[2][k]) * (1.0 / 3.0))
         };
-        let centroids: Vec<[f32; 3]> = corners.iter().map(centroid).collect();
-        let boxes: Vec<Aabb> = corners
+        // Each triangle's centroid and box travel with it through the partitions,
+        // so every pass over a range reads memory in order.
+        let mut prims: Vec<Prim> = corners
             .iter()
-            .map(|c| {
+            .enumerate()
+            .map(|(t, c)| {
                 let mut b = Aabb::EMPTY;
                 c.iter().for_each(|&p| b.grow(p));
-                b
+                Prim {
+                    centroid: centroid(c),
+                    bounds: b,
+                    id: t as u32,
+                }
             })
             .collect();
-        let mut order: Vec<u32> = (0..n as u32).collect();
         let mut nodes: Vec<Node> = Vec::with_capacity(2 * n / LEAF_SIZE + 1);
         nodes.push(Node {
             lo: [0.0; 3],
@@ -118,9 +131,9 @@ impl Bvh {
         while let Some((ni, start, end)) = work.pop() {
             let mut bounds = Aabb::EMPTY;
             let mut cbounds = Aabb::EMPTY;
-            for &t in &order[start..end] {
-                bounds.merge(&boxes[t as usize]);
-                cbounds.grow(centroids[t as usize]);
+            for p in &prims[start..end] {
+                bounds.merge(&p.bounds);
+                cbounds.grow(p.centroid);
             }
             nodes[ni].lo = bounds.lo;
             nodes[ni].hi = bounds.hi;
@@ -128,7 +141,7 @@ impl Bvh {
             let split = if count <= LEAF_SIZE {
                 None
             } else {
-                Self::sah_split(&mut order[start..end], &centroids, &boxes, &cbounds)
+                Self::sah_split(&mut prims[start..end], &cbounds)
             };
             match split {
                 None if count <= LEAF_SIZE * 4 => {
@@ -149,6 +162,8 @@ impl Bvh {
                 }
             }
         }
+        let order: Vec<u32> = prims.iter().map(|p| p.id).collect();
+        drop(prims);
         let tris: Vec<[[f32; 3]; 3]> = order.iter().map(|&t| corners[t as usize]).collect();
         let mut slot_of = vec![0u32; n];
         for (slot, &t) in order.iter().enumerate() {
@@ -162,14 +177,9 @@ impl Bvh {
         }
     }
 
-    /// Partitions `order` by the best SAH bin boundary; returns the left count, or
+    /// Partitions `prims` by the best SAH bin boundary; returns the left count, or
     /// `None` when no split beats a leaf.
-    fn sah_split(
-        order: &mut [u32],
-        centroids: &[[f32; 3]],
-        boxes: &[Aabb],
-        cbounds: &Aabb,
-    ) -> Option<usize> {
+    fn sah_split(prims: &mut [Prim], cbounds: &Aabb) -> Option<usize> {
         let ext: [f32; 3] = std::array::from_fn(|k| cbounds.hi[k] - cbounds.lo[k]);
         let axis = (0..3)
             .max_by(|&a, &b| ext[a].total_cmp(&ext[b]))
@@ -178,15 +188,15 @@ impl Bvh {
             return None;
         }
         let scale = BINS as f32 / ext[axis];
-        let bin_of = |t: u32| -> usize {
-            let b = ((centroids[t as usize][axis] - cbounds.lo[axis]) * scale) as usize;
+        let bin_of = |p: &Prim| -> usize {
+            let b = ((p.centroid[axis] - cbounds.lo[axis]) * scale) as usize;
             b.min(BINS - 1)
         };
         let mut bin_box = [Aabb::EMPTY; BINS];
         let mut bin_cnt = [0usize; BINS];
-        for &t in order.iter() {
-            let b = bin_of(t);
-            bin_box[b].merge(&boxes[t as usize]);
+        for p in prims.iter() {
+            let b = bin_of(p);
+            bin_box[b].merge(&p.bounds);
             bin_cnt[b] += 1;
         }
         // Sweep: cost of splitting after bin i.
@@ -219,16 +229,16 @@ impl Bvh {
         }
         // Partition in place: bins <= best.1 to the left.
         let mut i = 0;
-        let mut j = order.len();
+        let mut j = prims.len();
         while i < j {
-            if bin_of(order[i]) <= best.1 {
+            if bin_of(&prims[i]) <= best.1 {
                 i += 1;
             } else {
                 j -= 1;
-                order.swap(i, j);
+                prims.swap(i, j);
             }
         }
-        (i > 0 && i < order.len()).then_some(i)
+        (i > 0 && i < prims.len()).then_some(i)
     }
 
     /// Number of triangles indexed.

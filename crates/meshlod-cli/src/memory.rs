@@ -62,6 +62,18 @@ pub struct MemoryReport {
     pub extra_bytes_per_input_triangle: Option<f64>,
 }
 
+impl MemoryReport {
+    /// A report with the peak only (reading was not set apart, e.g. streaming).
+    #[must_use]
+    pub fn peak_only(peak_rss_bytes: u64) -> Self {
+        Self {
+            peak_rss_bytes,
+            input_rss_bytes: None,
+            extra_bytes_per_input_triangle: None,
+        }
+    }
+}
+
 /// Tracks the phases of one run.
 #[derive(Debug, Clone, Copy)]
 pub struct Phases {
@@ -85,11 +97,7 @@ impl Phases {
     pub fn report(&self, triangles_in: usize) -> Option<MemoryReport> {
         let now = rss()?;
         let Some(read) = self.read else {
-            return Some(MemoryReport {
-                peak_rss_bytes: now.peak,
-                input_rss_bytes: None,
-                extra_bytes_per_input_triangle: None,
-            });
+            return Some(MemoryReport::peak_only(now.peak));
         };
         let extra = (self.reset && triangles_in > 0)
             .then(|| now.peak.saturating_sub(read.current) as f64 / triangles_in as f64);

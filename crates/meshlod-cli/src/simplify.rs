@@ -379,11 +379,7 @@ fn run_stream(args: &SimplifyArgs, opts: &SimplifyOptions) -> Result<()> {
     )?;
     let write_seconds = t1.elapsed().as_secs_f64();
     // The peak so far: reading is part of the run here.
-    let memory = memory::rss().map(|r| MemoryReport {
-        peak_rss_bytes: r.peak,
-        input_rss_bytes: None,
-        extra_bytes_per_input_triangle: None,
-    });
+    let memory = memory::rss().map(|r| MemoryReport::peak_only(r.peak));
     // Measuring needs the input in memory.
     let measure = if args.measure {
         let input = read_scene(&args.input)?.flatten();

@@ -337,7 +337,7 @@ impl Surface {
             let (s, l) = (slot.start as usize, slot.len as usize);
             debug_assert!(w <= s && slot.cap >= slot.len);
             self.fans.copy_within(s..s + l, w);
-            let cap = (slot.len + FAN_SLACK).min(slot.cap.max(slot.len)) as usize;
+            let cap = (slot.len + FAN_SLACK).min(slot.cap) as usize;
             self.fans[w + l..w + cap].fill(DEAD);
             self.fan_slot[p as usize].start = w as u32;
             self.fan_slot[p as usize].cap = cap as u32;

@@ -100,29 +100,65 @@ impl Qem {
             .copied()
             .unwrap_or(Quadric::ZERO)
     }
+}
 
-    fn candidate(q: &Quadric, removed: u32, kept: u32, x: [f64; 3], c: [f64; 3]) -> Candidate {
-        let cost = q.evaluate(x).max(0.0);
-        Candidate {
-            removed,
-            kept,
-            position: [x[0] + c[0], x[1] + c[1], x[2] + c[2]],
-            cost,
-            error: q.distance(cost),
-        }
-    }
+/// Where [`Qem::choose`] puts the survivor of a pair.
+#[derive(Debug, Clone, Copy)]
+enum Choice {
+    /// A half-edge collapse of `removed` onto `kept`, at `kept`'s exact position.
+    At { removed: u32, kept: u32 },
+    /// A merge at a new position (local frame of the surface).
+    Free([f64; 3]),
 }
 
 impl Qem {
-    /// Half-edge collapse of `removed` onto `kept`, at `kept`'s exact position.
-    fn at_point(q: &Quadric, surface: &Surface, removed: u32, kept: u32) -> Candidate {
-        let cost = q.evaluate(surface.local(kept)).max(0.0);
-        Candidate {
-            removed,
-            kept,
-            position: surface.position(kept).map(f64::from),
-            cost,
-            error: q.distance(cost),
+    /// The placement rule for pair `(a, b)` under the summed quadric `q`, and its
+    /// cost `q(x)` (clamped at 0): shared by [`CostModel::evaluate`] and the queue's
+    /// leaner [`CostModel::evaluate_cost`], so both give the same cost bit for bit.
+    fn choose(
+        &self,
+        q: &Quadric,
+        surface: &Surface,
+        a: u32,
+        b: u32,
+        moves: &Moves,
+    ) -> Option<(Choice, f64)> {
+        let (pa, pb) = (surface.local(a), surface.local(b));
+        let at = |removed: u32, kept: u32, p: [f64; 3]| {
+            (Choice::At { removed, kept }, q.evaluate(p).max(0.0))
+        };
+        match (moves.merge, self.options.placement) {
+            (Merge::Anywhere, Placement::Optimal) => {
+                let m = q.minimize(pa, pb, self.options.condition, self.options.max_reach);
+                return Some((Choice::Free(m.position), m.cost));
+            }
+            (Merge::OnSegment, Placement::Optimal) => {
+                let (t, x, cost) = q.minimize_on_segment(pa, pb);
+                // At an end: a half-edge collapse onto that end, position exact.
+                return Some(if t == 0.0 {
+                    at(b, a, pa)
+                } else if t == 1.0 {
+                    at(a, b, pb)
+                } else {
+                    (Choice::Free(x), cost)
+                });
+            }
+            (Merge::Anywhere | Merge::OnSegment, Placement::Midpoint) => {
+                let x = [
+                    0.5 * (pa[0] + pb[0]),
+                    0.5 * (pa[1] + pb[1]),
+                    0.5 * (pa[2] + pb[2]),
+                ];
+                return Some((Choice::Free(x), q.evaluate(x).max(0.0)));
+            }
+            _ => {}
+        }
+        // Half-edge collapses only: the cheaper direction; on a tie, removing `a`.
+        let onto_b = moves.a_to_b.then(|| at(a, b, pb));
+        let onto_a = moves.b_to_a.then(|| at(b, a, pa));
+        match (onto_b, onto_a) {
+            (Some(x), Some(y)) => Some(if (y.1, b) < (x.1, a) { y } else { x }),
+            (x, y) => x.or(y),
         }
     }
 }
@@ -188,84 +224,27 @@ impl CostModel for Qem {
 
     fn evaluate(&self, surface: &Surface, a: u32, b: u32, moves: &Moves) -> Option<Candidate> {
         let q = self.quadrics[a as usize].sum(&self.quadrics[b as usize]);
-        let (pa, pb) = (surface.local(a), surface.local(b));
-        let c = surface.center();
-        let (keep, drop) = if a < b { (a, b) } else { (b, a) };
-        match (moves.merge, self.options.placement) {
-            (Merge::Anywhere, Placement::Optimal) => {
-                let m = q.minimize(pa, pb, self.options.condition, self.options.max_reach);
-                return Some(Self::candidate(&q, drop, keep, m.position, c));
+        let (choice, cost) = self.choose(&q, surface, a, b, moves)?;
+        let (removed, kept, position) = match choice {
+            Choice::At { removed, kept } => (removed, kept, surface.position(kept).map(f64::from)),
+            Choice::Free(x) => {
+                let c = surface.center();
+                // The survivor of a merge is the smaller id.
+                (a.max(b), a.min(b), [x[0] + c[0], x[1] + c[1], x[2] + c[2]])
             }
-            (Merge::OnSegment, Placement::Optimal) => {
-                let (t, x, _) = q.minimize_on_segment(pa, pb);
-                // At an end: a half-edge collapse onto that end, position exact.
-                let cand = if t == 0.0 {
-                    Self::at_point(&q, surface, b, a)
-                } else if t == 1.0 {
-                    Self::at_point(&q, surface, a, b)
-                } else {
-                    Self::candidate(&q, drop, keep, x, c)
-                };
-                return Some(cand);
-            }
-            (Merge::Anywhere | Merge::OnSegment, Placement::Midpoint) => {
-                let x = [
-                    0.5 * (pa[0] + pb[0]),
-                    0.5 * (pa[1] + pb[1]),
-                    0.5 * (pa[2] + pb[2]),
-                ];
-                return Some(Self::candidate(&q, drop, keep, x, c));
-            }
-            _ => {}
-        }
-        let mut best: Option<Candidate> = None;
-        if moves.a_to_b {
-            best = Some(Self::at_point(&q, surface, a, b));
-        }
-        if moves.b_to_a {
-            let cand = Self::at_point(&q, surface, b, a);
-            if best.is_none_or(|x| (cand.cost, cand.removed) < (x.cost, x.removed)) {
-                best = Some(cand);
-            }
-        }
-        best
+        };
+        Some(Candidate {
+            removed,
+            kept,
+            position,
+            cost,
+            error: q.distance(cost),
+        })
     }
 
     fn evaluate_cost(&self, surface: &Surface, a: u32, b: u32, moves: &Moves) -> Option<f64> {
-        // The same arithmetic as `evaluate`, without the position and the error.
         let q = self.quadrics[a as usize].sum(&self.quadrics[b as usize]);
-        let (pa, pb) = (surface.local(a), surface.local(b));
-        match (moves.merge, self.options.placement) {
-            (Merge::Anywhere, Placement::Optimal) => {
-                let m = q.minimize(pa, pb, self.options.condition, self.options.max_reach);
-                return Some(m.cost);
-            }
-            (Merge::OnSegment, Placement::Optimal) => {
-                let (t, _, cost) = q.minimize_on_segment(pa, pb);
-                return Some(if t == 0.0 {
-                    q.evaluate(pa).max(0.0)
-                } else if t == 1.0 {
-                    q.evaluate(pb).max(0.0)
-                } else {
-                    cost
-                });
-            }
-            (Merge::Anywhere | Merge::OnSegment, Placement::Midpoint) => {
-                let x = [
-                    0.5 * (pa[0] + pb[0]),
-                    0.5 * (pa[1] + pb[1]),
-                    0.5 * (pa[2] + pb[2]),
-                ];
-                return Some(q.evaluate(x).max(0.0));
-            }
-            _ => {}
-        }
-        let ca = moves.b_to_a.then(|| q.evaluate(pa).max(0.0));
-        let cb = moves.a_to_b.then(|| q.evaluate(pb).max(0.0));
-        match (ca, cb) {
-            (Some(x), Some(y)) => Some(x.min(y)),
-            (x, y) => x.or(y),
-        }
+        self.choose(&q, surface, a, b, moves).map(|(_, cost)| cost)
     }
 
     fn prefetch(&self, points: &[u32]) {

@@ -608,7 +608,7 @@ pub fn simplify_observed(
     let facing = (options.facing_repair
         && outcome.collapses > 0
         && matches!(options.method, Method::Qem | Method::Melax))
-    .then(|| facing::repair(mesh, &mut out, diag));
+    .then(|| facing::repair(mesh, &mut out, diag, Some(&vertex_source)));
     let report = Report {
         method: options.method.name(),
         triangles_in: mesh.triangles.len(),

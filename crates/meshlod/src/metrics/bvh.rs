@@ -177,6 +177,151 @@ impl Bvh {
         }
     }
 
+    /// Builds a hierarchy over `triangles` of `positions` from the Morton order of
+    /// their centroids (a linear BVH, Lauterbach et al., "Fast BVH construction on
+    /// GPUs", 2009): centroids are quantised to 10 bits per axis, interleaved, radix
+    /// sorted, and each range is split where its highest differing bit changes. About
+    /// ten times cheaper to build than [`Bvh::build`], with somewhat looser boxes, so
+    /// queries cost a little more: for a few queries per triangle, not millions.
+    /// Answers are exact either way.
+    ///
+    /// # Panics
+    /// Panics if a triangle index is out of range (validate the mesh first).
+    #[must_use]
+    pub fn build_morton(positions: &[[f32; 3]], triangles: &[[u32; 3]]) -> Self {
+        let n = triangles.len();
+        if n == 0 {
+            return Self::build(positions, triangles);
+        }
+        let corners: Vec<[[f32; 3]; 3]> = triangles
+            .iter()
+            .map(|t| t.map(|i| positions[i as usize]))
+            .collect();
+        let mut cb = Aabb::EMPTY;
+        let centroids: Vec<[f32; 3]> = corners
+            .iter()
+            .map(|c| {
+                let m = std::array::from_fn(|k| (c[0][k] + c[1][k] + c[2][k]) * (1.0 / 3.0));
+                cb.grow(m);
+                m
+            })
+            .collect();
+        let scale: [f32; 3] = std::array::from_fn(|k| {
+            let e = cb.hi[k] - cb.lo[k];
+            if e > 0.0 && e.is_finite() {
+                1023.0 / e
+            } else {
+                0.0
+            }
+        });
+        // Spreads the low 10 bits of x to every third bit.
+        let spread = |x: u32| -> u32 {
+            let mut x = x & 0x3ff;
+            x = (x | (x << 16)) & 0x0300_00ff;
+            x = (x | (x << 8)) & 0x0300_f00f;
+            x = (x | (x << 4)) & 0x030c_30c3;
+            (x | (x << 2)) & 0x0924_9249
+        };
+        let mut keys: Vec<(u32, u32)> = centroids
+            .iter()
+            .enumerate()
+            .map(|(t, m)| {
+                let q = |k: usize| ((m[k] - cb.lo[k]) * scale[k]).clamp(0.0, 1023.0) as u32;
+                (
+                    (spread(q(0)) << 2) | (spread(q(1)) << 1) | spread(q(2)),
+                    t as u32,
+                )
+            })
+            .collect();
+        drop(centroids);
+        // LSD radix sort on the 30-bit code, 3 passes of 10 bits; stable, so equal
+        // codes keep triangle order (deterministic).
+        let mut tmp = vec![(0u32, 0u32); n];
+        for pass in 0..3 {
+            let shift = 10 * pass;
+            let mut count = [0usize; 1025];
+            for &(c, _) in &keys {
+                count[((c >> shift) & 0x3ff) as usize + 1] += 1;
+            }
+            for i in 0..1024 {
+                count[i + 1] += count[i];
+            }
+            for &kv in &keys {
+                let b = ((kv.0 >> shift) & 0x3ff) as usize;
+                tmp[count[b]] = kv;
+                count[b] += 1;
+            }
+            std::mem::swap(&mut keys, &mut tmp);
+        }
+        drop(tmp);
+        let mut nodes: Vec<Node> = Vec::with_capacity(2 * n / LEAF_SIZE + 1);
+        let blank = Node {
+            lo: [0.0; 3],
+            first: 0,
+            hi: [0.0; 3],
+            count: 0,
+        };
+        nodes.push(blank);
+        let mut work = vec![(0usize, 0usize, n)];
+        while let Some((ni, start, end)) = work.pop() {
+            let count = end - start;
+            if count <= LEAF_SIZE {
+                nodes[ni].first = start as u32;
+                nodes[ni].count = count as u32;
+                continue;
+            }
+            let (a, b) = (keys[start].0, keys[end - 1].0);
+            let mid = if a == b {
+                start + count / 2
+            } else {
+                // First index whose code has the highest differing bit set.
+                let bit = 31 - (a ^ b).leading_zeros();
+                let mask = 1u32 << bit;
+                start + keys[start..end].partition_point(|&(c, _)| c & mask == 0)
+            };
+            let left = nodes.len();
+            nodes.push(blank);
+            nodes.push(blank);
+            nodes[ni].first = left as u32;
+            work.push((left + 1, mid, end));
+            work.push((left, start, mid));
+        }
+        let tris: Vec<[[f32; 3]; 3]> = keys.iter().map(|&(_, t)| corners[t as usize]).collect();
+        drop(corners);
+        // Boxes bottom-up: children always come after their parent.
+        for i in (0..nodes.len()).rev() {
+            let nd = nodes[i];
+            let mut bx = Aabb::EMPTY;
+            if nd.count > 0 {
+                let s = nd.first as usize;
+                for t in &tris[s..s + nd.count as usize] {
+                    t.iter().for_each(|&p| bx.grow(p));
+                }
+            } else {
+                let l = nd.first as usize;
+                for c in [l, l + 1] {
+                    bx.merge(&Aabb {
+                        lo: nodes[c].lo,
+                        hi: nodes[c].hi,
+                    });
+                }
+            }
+            nodes[i].lo = bx.lo;
+            nodes[i].hi = bx.hi;
+        }
+        let ids: Vec<u32> = keys.iter().map(|&(_, t)| t).collect();
+        let mut slot_of = vec![0u32; n];
+        for (slot, &t) in ids.iter().enumerate() {
+            slot_of[t as usize] = slot as u32;
+        }
+        Self {
+            nodes,
+            tris,
+            ids,
+            slot_of,
+        }
+    }
+
     /// Partitions `prims` by the best SAH bin boundary; returns the left count, or
     /// `None` when no split beats a leaf.
     fn sah_split(prims: &mut [Prim], cbounds: &Aabb) -> Option<usize> {
@@ -418,22 +563,27 @@ mod tests {
             }
             triangles.push([3 * t, 3 * t + 1, 3 * t + 2]);
         }
-        let bvh = Bvh::build(&positions, &triangles);
-        for _ in 0..50 {
-            let lo = [0; 3].map(|_| f64::from(lcg(&mut s)) * 10.0);
-            let hi = lo.map(|v| v + f64::from(lcg(&mut s)) * 3.0);
-            let mut got = Vec::new();
-            bvh.for_each_in_box(lo, hi, |t, _| got.push(t));
-            got.sort_unstable();
-            let want: Vec<u32> = (0..triangles.len() as u32)
-                .filter(|&t| {
-                    (0..3).all(|k| {
-                        let v = triangles[t as usize].map(|i| f64::from(positions[i as usize][k]));
-                        v[0].min(v[1]).min(v[2]) <= hi[k] && v[0].max(v[1]).max(v[2]) >= lo[k]
+        for bvh in [
+            Bvh::build(&positions, &triangles),
+            Bvh::build_morton(&positions, &triangles),
+        ] {
+            for _ in 0..50 {
+                let lo = [0; 3].map(|_| f64::from(lcg(&mut s)) * 10.0);
+                let hi = lo.map(|v| v + f64::from(lcg(&mut s)) * 3.0);
+                let mut got = Vec::new();
+                bvh.for_each_in_box(lo, hi, |t, _| got.push(t));
+                got.sort_unstable();
+                let want: Vec<u32> = (0..triangles.len() as u32)
+                    .filter(|&t| {
+                        (0..3).all(|k| {
+                            let v =
+                                triangles[t as usize].map(|i| f64::from(positions[i as usize][k]));
+                            v[0].min(v[1]).min(v[2]) <= hi[k] && v[0].max(v[1]).max(v[2]) >= lo[k]
+                        })
                     })
-                })
-                .collect();
-            assert_eq!(got, want);
+                    .collect();
+                assert_eq!(got, want);
+            }
         }
     }
 
@@ -458,30 +608,34 @@ mod tests {
                 let b = 3 * t as u32;
                 triangles.push([b, b + 1, b + 2]);
             }
-            let bvh = Bvh::build(&positions, &triangles);
-            let mut hint = None;
-            for _ in 0..300 {
-                let p = [
-                    f64::from(lcg(&mut s)) * 12.0 - 1.0,
-                    f64::from(lcg(&mut s)) * 12.0 - 1.0,
-                    f64::from(lcg(&mut s)) * 12.0 - 1.0,
-                ];
-                let got = bvh.closest(p, hint).unwrap();
-                hint = Some(got.triangle);
-                let f = |v: [f32; 3]| [f64::from(v[0]), f64::from(v[1]), f64::from(v[2])];
-                let brute = triangles
-                    .iter()
-                    .map(|t| {
-                        let (q, _) = closest_point(
-                            p,
-                            f(positions[t[0] as usize]),
-                            f(positions[t[1] as usize]),
-                            f(positions[t[2] as usize]),
-                        );
-                        dist2(p, q)
-                    })
-                    .fold(f64::INFINITY, f64::min);
-                assert_eq!(got.dist2, brute, "n={n} p={p:?}");
+            for bvh in [
+                Bvh::build(&positions, &triangles),
+                Bvh::build_morton(&positions, &triangles),
+            ] {
+                let mut hint = None;
+                for _ in 0..300 {
+                    let p = [
+                        f64::from(lcg(&mut s)) * 12.0 - 1.0,
+                        f64::from(lcg(&mut s)) * 12.0 - 1.0,
+                        f64::from(lcg(&mut s)) * 12.0 - 1.0,
+                    ];
+                    let got = bvh.closest(p, hint).unwrap();
+                    hint = Some(got.triangle);
+                    let f = |v: [f32; 3]| [f64::from(v[0]), f64::from(v[1]), f64::from(v[2])];
+                    let brute = triangles
+                        .iter()
+                        .map(|t| {
+                            let (q, _) = closest_point(
+                                p,
+                                f(positions[t[0] as usize]),
+                                f(positions[t[1] as usize]),
+                                f(positions[t[2] as usize]),
+                            );
+                            dist2(p, q)
+                        })
+                        .fold(f64::INFINITY, f64::min);
+                    assert_eq!(got.dist2, brute, "n={n} p={p:?}");
+                }
             }
         }
     }
@@ -492,9 +646,16 @@ mod tests {
         // 100 copies of one triangle: no SAH split exists; the build must still end.
         let positions = vec![[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]];
         let triangles = vec![[0, 1, 2]; 100];
-        let bvh = Bvh::build(&positions, &triangles);
-        let c = bvh.closest([0.25, 0.25, 2.0], None).unwrap();
-        assert!((c.dist2 - 4.0).abs() < 1e-12);
-        assert_eq!(c.triangle, 0);
+        assert!(Bvh::build_morton(&[], &[])
+            .closest([0.0; 3], None)
+            .is_none());
+        for bvh in [
+            Bvh::build(&positions, &triangles),
+            Bvh::build_morton(&positions, &triangles),
+        ] {
+            let c = bvh.closest([0.25, 0.25, 2.0], None).unwrap();
+            assert!((c.dist2 - 4.0).abs() < 1e-12);
+            assert_eq!(c.triangle, 0);
+        }
     }
 }

@@ -299,21 +299,36 @@ impl Mesh {
         if u32::try_from(n).is_err() {
             return Err(MeshError::TooManyVertices { vertices: n });
         }
-        for (vertex, p) in self.positions.iter().enumerate() {
-            for &value in p {
-                if !value.is_finite() {
-                    return Err(MeshError::NonFinite { vertex, value });
+        // Branch-free scans (they vectorise); the slow loops below only run to name
+        // the offender.
+        let non_finite = self.positions.chunks(4096).any(|c| {
+            c.iter()
+                .flatten()
+                .fold(false, |bad, x| bad | (x.to_bits() & 0x7f80_0000 == 0x7f80_0000))
+        });
+        if non_finite {
+            for (vertex, p) in self.positions.iter().enumerate() {
+                for &value in p {
+                    if !value.is_finite() {
+                        return Err(MeshError::NonFinite { vertex, value });
+                    }
                 }
             }
         }
-        for (triangle, t) in self.triangles.iter().enumerate() {
-            for &index in t {
-                if index as usize >= n {
-                    return Err(MeshError::IndexOutOfRange {
-                        triangle,
-                        index,
-                        vertices: n,
-                    });
+        let out_of_range = self
+            .triangles
+            .chunks(4096)
+            .any(|c| c.iter().flatten().fold(0u32, |m, &i| m.max(i)) as usize >= n);
+        if out_of_range {
+            for (triangle, t) in self.triangles.iter().enumerate() {
+                for &index in t {
+                    if index as usize >= n {
+                        return Err(MeshError::IndexOutOfRange {
+                            triangle,
+                            index,
+                            vertices: n,
+                        });
+                    }
                 }
             }
         }
@@ -350,7 +365,15 @@ impl Mesh {
                 }
             }
         } else {
-            self.positions.iter().for_each(&mut add);
+            // Comparisons rather than `f32::min` (same result, NaN ignored): this loop
+            // vectorises.
+            for p in &self.positions {
+                for k in 0..3 {
+                    lo[k] = if p[k] < lo[k] { p[k] } else { lo[k] };
+                    hi[k] = if p[k] > hi[k] { p[k] } else { hi[k] };
+                }
+            }
+            any = !self.positions.is_empty();
         }
         any.then_some((lo, hi))
     }

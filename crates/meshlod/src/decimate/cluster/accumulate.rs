@@ -124,8 +124,10 @@ pub(crate) fn prepare_block(
     }
 }
 
-/// The sums of one cell (120 bytes).
+/// The sums of one cell (120 bytes, aligned to 64 so that a record spans exactly two
+/// cache lines).
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
+#[repr(C, align(64))]
 pub(crate) struct Acc {
     /// Σ of the area-weighted plane quadrics ([`Prepared::q`], grid frame) of the
     /// triangles touching the cell, once per triangle; only filled for

@@ -20,6 +20,8 @@ pub struct Grid {
     inv: f64,
     /// Cells along x, y and z.
     pub dims: [u32; 3],
+    /// `dims − 1` as f64.
+    last: [f64; 3],
 }
 
 impl Grid {
@@ -51,6 +53,7 @@ impl Grid {
             cell,
             inv,
             dims,
+            last: dims.map(|d| f64::from(d - 1)),
         }
     }
 
@@ -58,12 +61,13 @@ impl Grid {
     #[inline]
     #[must_use]
     pub fn coords(&self, p: [f32; 3]) -> [u32; 3] {
-        // For x ≥ 0 the saturating cast truncates, which is floor (and avoids a libm
-        // call); negatives and NaN become 0; the clamp keeps rounding at the far face
-        // in.
+        // For x ≥ 0 truncation is floor (and avoids a libm call); negatives and NaN
+        // become 0; the clamp to the last cell (an integer, so clamping before or
+        // after truncating is the same) keeps rounding at the far face in, and makes
+        // the cast a plain conversion of an in-range value.
         let axis = |k: usize| {
             let x = (f64::from(p[k]) - self.origin[k]) * self.inv;
-            (x.max(0.0) as u32).min(self.dims[k] - 1)
+            x.max(0.0).min(self.last[k]) as u32
         };
         [axis(0), axis(1), axis(2)]
     }

@@ -115,7 +115,9 @@ use crate::io::stream;
 use crate::io::IoError;
 use crate::mesh::{Mesh, Weld};
 use crate::simplify::Distance;
-use accumulate::{add_triangle, prepare_block, representative, Acc, Prepared, BLOCK, MIN_WEIGHT};
+use accumulate::{
+    add_triangle, prepare_block, representative, Acc, Block, Prepared, BLOCK, MIN_WEIGHT,
+};
 use grid::KeyTriples;
 pub use grid::{CellTable, Grid, TripleSet, MAX_CELLS_PER_AXIS};
 use rayon::prelude::*;
@@ -512,7 +514,6 @@ impl Search {
                 Some(p) => p.1,
                 None => {
                     let c = count(&grid);
-                    if std::env::var_os("C5DBG").is_some() { eprintln!("probe goal {goal} eps {eps:.6e} count {c}"); }
                     self.probes.push((eps, c));
                     c
                 }
@@ -1170,7 +1171,15 @@ impl Pipeline for InMemory<'_> {
                 *u = m.into_inner();
             }
         }
-        let mut out = finish(grid, &table, &accs, stage1, how, mesh.group_names.clone(), false);
+        let mut out = finish(
+            grid,
+            &table,
+            &accs,
+            stage1,
+            how,
+            mesh.group_names.clone(),
+            false,
+        );
         // Attributes: per output vertex the closest input vertex of its cells (that a
         // triangle uses), beside the output's manifold counts. In parallel over ranges
         // of vertices, merged in range order (ties keep the lowest index, as
@@ -1264,14 +1273,19 @@ impl Accumulation<'_> {
     /// part.len()` it touches. Triangles whose cells are all outside the range are
     /// skipped before their planes are computed. With `used`, marks there every
     /// vertex a triangle uses.
-    fn run<const QUADRIC: bool>(&self, part: &mut [Acc], start: u32, mut used: Option<&mut [bool]>) {
+    fn run<const QUADRIC: bool>(
+        &self,
+        part: &mut [Acc],
+        start: u32,
+        mut used: Option<&mut [bool]>,
+    ) {
         let mesh = self.mesh;
         let vcell = self.vcell;
         let len = part.len() as u32;
         let owned = |c: u32| c.wrapping_sub(start) < len;
         let mut which = [0u32; BLOCK];
         let mut cells_of = [[0u32; 3]; BLOCK];
-        let mut planes = [Prepared::ZERO; BLOCK];
+        let mut planes = Block::new();
         let n = mesh.triangles.len();
         for (b, first) in (0..n).step_by(BLOCK).enumerate() {
             if let Some(spans) = self.spans {
@@ -1300,7 +1314,8 @@ impl Accumulation<'_> {
                 self.origin,
                 &mut planes,
             );
-            for ((plane, &t), &c) in planes.iter().zip(&which[..m]).zip(&cells_of[..m]) {
+            for (i, (&t, &c)) in which[..m].iter().zip(&cells_of[..m]).enumerate() {
+                let plane = &planes.plane(i);
                 let w = corner_weights(plane, self.how, |k| {
                     self.factors.map_or(1.0, |f| {
                         f64::from(f[mesh.triangles[t as usize][k] as usize])

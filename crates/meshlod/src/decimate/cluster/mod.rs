@@ -579,6 +579,7 @@ pub fn cluster_mesh(
         options,
         factors: corner_factors(mesh, options),
         keys: Vec::new(),
+        small: Vec::new(),
         keys_cell: f64::NAN,
         triples: KeyTriples::default(),
         distinct: Vec::new(),
@@ -1001,13 +1002,21 @@ fn feature_factors(mesh: &Mesh) -> Vec<f32> {
         .collect()
 }
 
+/// Whether the cells of `grid` have [`Grid::linear`] indices that fit in a `u32`.
+fn small_grid(grid: &Grid) -> bool {
+    grid.cell_count() <= u64::from(u32::MAX)
+}
+
 /// The in-memory pipeline: probes and first stages on per-vertex cell keys.
 struct InMemory<'a> {
     mesh: &'a Mesh,
     options: &'a ClusterOptions,
     factors: Option<Vec<f32>>,
-    /// The cell key of every vertex on the grid of side `keys_cell` (NaN: none yet).
+    /// The cell of every vertex on the grid of side `keys_cell` (NaN: none yet): its
+    /// [`Grid::linear`] index in `small` when the grid has at most 2³² cells (half
+    /// the memory to gather in the probes), else its key in `keys`.
     keys: Vec<u64>,
+    small: Vec<u32>,
     keys_cell: f64,
     triples: KeyTriples,
     /// The triangles with three distinct cells on the grid of side `distinct_cell`
@@ -1028,15 +1037,21 @@ struct MemStaged {
 impl InMemory<'_> {
     /// Fills [`Self::keys`] for `grid` (the origin never changes; only the side).
     fn keys_for(&mut self, grid: &Grid) {
-        if self.keys_cell.to_bits() == grid.cell.to_bits() && !self.keys.is_empty() {
+        if self.keys_cell.to_bits() == grid.cell.to_bits() {
             return;
         }
-        self.mesh
-            .positions
-            .par_iter()
-            .with_min_len(PAR_MIN)
-            .map(|&p| grid.key(p))
-            .collect_into_vec(&mut self.keys);
+        let positions = self.mesh.positions.par_iter().with_min_len(PAR_MIN);
+        if small_grid(grid) {
+            positions
+                .map(|&p| grid.linear(p) as u32)
+                .collect_into_vec(&mut self.small);
+            self.keys.clear();
+        } else {
+            positions
+                .map(|&p| grid.key(p))
+                .collect_into_vec(&mut self.keys);
+            self.small.clear();
+        }
         self.keys_cell = grid.cell;
     }
 }
@@ -1046,14 +1061,24 @@ impl Pipeline for InMemory<'_> {
 
     fn count(&mut self, grid: &Grid, goal: usize) -> usize {
         self.keys_for(grid);
-        let (tris, keys) = (&self.mesh.triangles, &self.keys);
-        let c = count_distinct(
-            tris.len(),
-            |t| tris[t].map(|v| keys[v as usize]),
-            &mut self.triples,
-            goal,
-            Some(&mut self.distinct),
-        );
+        let (tris, keys, small) = (&self.mesh.triangles, &self.keys, &self.small);
+        let c = if small_grid(grid) {
+            count_distinct(
+                tris.len(),
+                |t| tris[t].map(|v| u64::from(small[v as usize])),
+                &mut self.triples,
+                goal,
+                Some(&mut self.distinct),
+            )
+        } else {
+            count_distinct(
+                tris.len(),
+                |t| tris[t].map(|v| keys[v as usize]),
+                &mut self.triples,
+                goal,
+                Some(&mut self.distinct),
+            )
+        };
         self.distinct_cell = grid.cell;
         c
     }
@@ -1071,7 +1096,14 @@ impl Pipeline for InMemory<'_> {
         // bytes per grid cell: allowed up to eight per vertex.
         let dense_limit = (8 * mesh.positions.len()).max(1 << 12);
         let mut table = CellTable::for_grid(grid, expected_cells(expect), dense_limit);
-        let vcell: Vec<u32> = self.keys.iter().map(|&k| table.id(k)).collect();
+        let vcell: Vec<u32> = if small_grid(grid) {
+            self.small
+                .iter()
+                .map(|&l| table.id_linear(u64::from(l), grid))
+                .collect()
+        } else {
+            self.keys.iter().map(|&k| table.id(k)).collect()
+        };
         let (mut stage1, mut set) = Stage1::new(expect);
         let cells_of = |t: usize| mesh.triangles[t].map(|v| vcell[v as usize]);
         if self.distinct_cell.to_bits() == grid.cell.to_bits() {
@@ -1237,7 +1269,7 @@ impl Pipeline for InMemory<'_> {
         }
         let source: Vec<u32> = best.iter().map(|b| b.1).collect();
         out.mesh.attributes = mesh.attributes.gather(&source);
-        out.stats.working_bytes += vcell.len() * 4 + self.keys.len() * 8;
+        out.stats.working_bytes += vcell.len() * 4 + self.keys.len() * 8 + self.small.len() * 4;
         Clustered {
             mesh: out.mesh,
             vertex_source: source,

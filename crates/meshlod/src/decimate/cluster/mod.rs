@@ -866,10 +866,12 @@ impl Sampler {
 }
 
 /// Minimum items per parallel task in the per-vertex maps.
-const PAR_MIN: usize = 1 << 13;
+const PAR_MIN: usize = 1 << 15;
 
-/// Inputs from this many triangles test their cells in parallel in the probes.
-const PAR_COUNT: usize = 1 << 14;
+/// Inputs from this many triangles test their cells in parallel in the probes. Below
+/// it (the shared test meshes, a few milliseconds a call) waking the pool's threads
+/// cost more than they saved on a loaded 2-core machine.
+const PAR_COUNT: usize = 1 << 18;
 
 /// Triangles whose three corner keys differ, copies over the same three keys counted
 /// once. The distinct-key test is parallel for large inputs; the set is filled in
@@ -1249,15 +1251,18 @@ impl Pipeline for InMemory<'_> {
             1
         };
         let per = nv.div_ceil(parts);
-        let (topo, mut partial) = rayon::join(
-            || edge_counts(&out.mesh.triangles, n_out),
-            || -> Vec<Vec<(f64, u32)>> {
-                (0..parts)
-                    .into_par_iter()
-                    .map(|i| closest(i * per..((i + 1) * per).min(nv)))
-                    .collect()
-            },
-        );
+        let topo = || edge_counts(&out.mesh.triangles, n_out);
+        let sources = || -> Vec<Vec<(f64, u32)>> {
+            (0..parts)
+                .into_par_iter()
+                .map(|i| closest(i * per..((i + 1) * per).min(nv)))
+                .collect()
+        };
+        let (topo, mut partial) = if n < PAR_ACCUMULATE {
+            (topo(), sources())
+        } else {
+            rayon::join(topo, sources)
+        };
         topo.record(&mut out.stats);
         let mut best = partial.swap_remove(0);
         for other in &partial {
@@ -1282,7 +1287,7 @@ impl Pipeline for InMemory<'_> {
 }
 
 /// Inputs from this many triangles accumulate in parallel (over ranges of cells).
-const PAR_ACCUMULATE: usize = 1 << 14;
+const PAR_ACCUMULATE: usize = 1 << 18;
 
 /// The smallest and largest cell id of the corners of a block of [`BLOCK`] triangles.
 type Span = (u32, u32);

@@ -83,20 +83,28 @@
 //! built). Coinciding representatives can still remove a few triangles after that.
 //!
 //! # Tables
+//! In memory, a vertex's cell is its linear index `(i·ny + j)·nz + k` as a `u32`
+//! while the grid has at most 2³² cells (the probes gather 4 bytes per corner, and
+//! the index is the flat table's slot), else its packed key `i·2⁴² + j·2²¹ + k`.
 //! Cell ids come from a flat array over the grid when the grid is small (in memory:
 //! at most eight grid cells per vertex; streamed: sixteen per expected occupied
 //! cell, so memory stays proportional to the occupied cells), from open addressing
 //! otherwise. Triangle planes are computed a block of 64 at a time (square roots
-//! and divisions in loops of their own), bit for bit as one at a time. The output's
+//! and divisions in loops of their own, the quadric entries where they are added),
+//! bit for bit as one at a time. The output's
 //! manifold counts sort its edge sides per vertex (linear in the output).
 //!
 //! # Parallelism and determinism
 //! Vertex keys and the probes' distinct-cell tests are parallel maps. On inputs of
 //! 2¹⁸ triangles or more, accumulation is parallel over contiguous ranges of cells:
-//! each worker scans the triangles in order and adds the contributions to its own
-//! cells, so each cell's sums are added in input order whatever the number of
-//! threads, and equal, bit for bit, to the sequential streaming path. The output is
-//! deterministic.
+//! the smallest and largest cell of every block of 64 triangles is found first (in
+//! parallel), then each worker visits, in order, the blocks that touch its cells
+//! (cells are numbered in vertex order, so on a coherent mesh about its share) and
+//! adds the contributions to its own cells, so each cell's sums are added in input
+//! order whatever the number of threads, and equal, bit for bit, to the sequential
+//! streaming path; the output's manifold counts run beside the attribute sources.
+//! Below 2¹⁸ triangles all of this is sequential: on the shared 2-core test machine
+//! waking the second thread cost more than it saved. The output is deterministic.
 //!
 //! # Streaming
 //! [`cluster_file`] reads the file twice with [`crate::io::stream`]: once for the

@@ -232,6 +232,10 @@ struct Region {
 struct Plan {
     /// Loop points `q_i`.
     q: Vec<u32>,
+    /// The fan's triangles as read by `VertexRemoval::build_loop`: in fan order
+    /// (`items`) and in loop order (`ring[i]` is `tris[i]`).
+    items: Vec<FanItem>,
+    ring: Vec<FanItem>,
     /// `tris[i]` = triangle `(v, q_i, q_{i+1})`.
     tris: Vec<u32>,
     /// Whether the loop is closed.
@@ -254,6 +258,9 @@ struct Plan {
     gen: u32,
     v: u32,
     /// Work buffers of the splitting.
+    uv: Vec<[f64; 2]>,
+    w: Vec<[f64; 2]>,
+    forbid: Vec<u64>,
     polys: Vec<u8>,
     stack: Vec<(u32, u32)>,
     diagonals: Vec<[u8; 2]>,
@@ -273,6 +280,20 @@ struct Plan {
     /// Bit `i`: new triangle `out[i]` faces away from the input (set by
     /// `VertexRemoval::more_facing_away`).
     away: u64,
+}
+
+/// One triangle `(v, a, b)` of the fan of `v`, read once from its record.
+#[derive(Debug, Clone, Copy, Default)]
+struct FanItem {
+    a: u32,
+    b: u32,
+    t: u32,
+    /// Wedges of `v`, `a` and `b` in the triangle.
+    wedge: [u32; 3],
+    group: u32,
+    err: f64,
+    /// Fan index of the triangle whose edge starts at `b` (`u8::MAX`: none).
+    next: u8,
 }
 
 /// One point's record.
@@ -637,67 +658,96 @@ impl VertexRemoval {
         }
     }
 
-    /// Fills `plan.q`, `plan.tris`, `plan.closed` from the fan of `v`.
+    /// Fills `plan.q`, `plan.tris`, `plan.ring`, `plan.closed` from the fan of `v`,
+    /// and marks the loop points (generation `plan.gen`, slot = loop index).
+    ///
+    /// Each triangle's record is read once. The fan edge `a → b` of each triangle
+    /// (`(v, a, b)` in its orientation) is linked to the triangle whose edge starts
+    /// at `b` through the marks of the `a` points, so the walk is linear in the
+    /// valence. Refused as complex: a point twice as a start or twice as an end of a
+    /// fan edge, more than one open end, several fans, `v` in its own loop.
     fn build_loop(&mut self, v: u32) -> Result<(), Refusal> {
+        const NEXT: [usize; 3] = [1, 2, 0];
+        const PREV: [usize; 3] = [2, 0, 1];
         let fan_len = self.pt[v as usize].len as usize;
         if fan_len == 0 || fan_len > MAX_VALENCE {
             return Err(Refusal::Kind);
         }
-        let mut items = [(0u32, 0u32, 0u32); MAX_VALENCE];
-        for (i, &t) in self.fan(v).iter().enumerate() {
-            let tt = self.tri[t as usize].p;
-            let k = if tt[0] == v {
+        let g = self.next_gen();
+        let s = self.pt[v as usize].start as usize;
+        let plan = &mut self.plan;
+        plan.items.clear();
+        for (i, &t) in self.fans[s..s + fan_len].iter().enumerate() {
+            let tt = &self.tri[t as usize];
+            let k = if tt.p[0] == v {
                 0
-            } else if tt[1] == v {
+            } else if tt.p[1] == v {
                 1
             } else {
                 2
             };
-            items[i] = (tt[(k + 1) % 3], tt[(k + 2) % 3], t);
-        }
-        let items = &items[..fan_len];
-        // Each point at most once as a start and once as an end of a fan edge.
-        let mut start = None;
-        let mut starts = 0;
-        for (i, it) in items.iter().enumerate() {
-            let mut as_a = 0;
-            let mut as_b = 0;
-            for o in items {
-                as_a += usize::from(o.0 == it.0);
-                as_b += usize::from(o.1 == it.0);
-            }
-            if as_a > 1 || as_b > 1 {
+            let (ka, kb) = (NEXT[k], PREV[k]);
+            let a = tt.p[ka];
+            let pa = &mut self.pt[a as usize];
+            if pa.mark == g {
                 return Err(Refusal::Kind);
             }
-            if as_b == 0 {
-                starts += 1;
-                start = Some(i);
+            pa.mark = g;
+            pa.slot = i as u8;
+            plan.items.push(FanItem {
+                a,
+                b: tt.p[kb],
+                t,
+                wedge: [tt.wedge[k], tt.wedge[ka], tt.wedge[kb]],
+                group: tt.group,
+                err: tt.err,
+                next: u8::MAX,
+            });
+        }
+        // Link each edge to its successor; no point may end two edges.
+        let mut has_pred = 0u64;
+        for i in 0..fan_len {
+            let b = plan.items[i].b;
+            let pb = &self.pt[b as usize];
+            if pb.mark == g {
+                let n = pb.slot;
+                if has_pred & (1u64 << n) != 0 {
+                    return Err(Refusal::Kind);
+                }
+                has_pred |= 1u64 << n;
+                plan.items[i].next = n;
             }
         }
+        let starts = fan_len - has_pred.count_ones() as usize;
         if starts > 1 {
             return Err(Refusal::Kind);
         }
-        let plan = &mut self.plan;
+        let first = if starts == 1 {
+            (!has_pred).trailing_zeros() as usize
+        } else {
+            0
+        };
         plan.q.clear();
         plan.tris.clear();
-        plan.closed = start.is_none();
-        let first = start.unwrap_or(0);
+        plan.ring.clear();
+        plan.closed = starts == 0;
         let mut cur = first;
         loop {
-            plan.q.push(items[cur].0);
-            plan.tris.push(items[cur].2);
-            let b = items[cur].1;
-            match items.iter().position(|o| o.0 == b) {
-                Some(n) if n == first => break,
-                Some(n) => {
+            let it = plan.items[cur];
+            plan.q.push(it.a);
+            plan.tris.push(it.t);
+            plan.ring.push(it);
+            match it.next {
+                u8::MAX => {
+                    plan.q.push(it.b);
+                    break;
+                }
+                n if usize::from(n) == first => break,
+                n => {
                     if plan.tris.len() >= fan_len {
                         return Err(Refusal::Kind);
                     }
-                    cur = n;
-                }
-                None => {
-                    plan.q.push(b);
-                    break;
+                    cur = usize::from(n);
                 }
             }
         }
@@ -705,19 +755,25 @@ impl VertexRemoval {
             // several fans around v
             return Err(Refusal::Kind);
         }
-        // No point twice in the loop (a pinched fan).
-        // The marks and slots also serve the edge lookups (`Plan::adjacent`).
-        let g = self.next_gen();
-        for (i, &q) in self.plan.q.iter().enumerate() {
-            let p = &mut self.pt[q as usize];
-            if p.mark == g || q == v {
+        // Every start point is a distinct loop point (marked above); the open end is
+        // the one point not marked yet. The marks and slots also serve the edge
+        // lookups (`Plan::adjacent`).
+        if !plan.closed {
+            let end = *plan.q.last().unwrap_or(&v);
+            let pe = &mut self.pt[end as usize];
+            if pe.mark == g {
                 return Err(Refusal::Kind);
             }
-            p.mark = g;
-            p.slot = i as u8;
+            pe.mark = g;
         }
-        self.plan.gen = g;
-        self.plan.v = v;
+        for (i, &q) in plan.q.iter().enumerate() {
+            if q == v {
+                return Err(Refusal::Kind);
+            }
+            self.pt[q as usize].slot = i as u8;
+        }
+        plan.gen = g;
+        plan.v = v;
         Ok(())
     }
 
@@ -734,30 +790,16 @@ impl VertexRemoval {
         plan.normal.clear();
         plan.right.clear();
         plan.left.clear();
-        let corner = |t: u32, p: u32| -> usize {
-            let tt = self.tri[t as usize].p;
-            if tt[0] == p {
-                0
-            } else if tt[1] == p {
-                1
-            } else {
-                2
-            }
-        };
         for i in 0..nt {
-            let j = (i + 1) % m;
+            let j = if i + 1 == m { 0 } else { i + 1 };
             plan.normal.push(cross(plan.pos[i], plan.pos[j]));
         }
         for i in 0..m {
-            let q = plan.q[i];
-            let r = if i < nt {
-                self.tri[plan.tris[i] as usize].wedge[corner(plan.tris[i], q)]
-            } else {
-                DEAD
-            };
-            let l = if i > 0 || plan.closed {
-                let t = plan.tris[(i + nt - 1) % nt];
-                self.tri[t as usize].wedge[corner(t, q)]
+            let r = if i < nt { plan.ring[i].wedge[1] } else { DEAD };
+            let l = if i > 0 {
+                plan.ring[i - 1].wedge[2]
+            } else if plan.closed {
+                plan.ring[nt - 1].wedge[2]
             } else {
                 DEAD
             };
@@ -770,13 +812,12 @@ impl VertexRemoval {
         let (mut ns, mut nc) = (0, 0);
         let (lo, hi) = if plan.closed { (0, m) } else { (1, m - 1) };
         for i in lo..hi {
-            let t0 = plan.tris[(i + nt - 1) % nt];
-            let t1 = plan.tris[i];
+            let i0 = if i == 0 { nt - 1 } else { i - 1 };
+            let (f0, f1) = (&plan.ring[i0], &plan.ring[i]);
             let is_seam = plan.left[i] != plan.right[i]
-                || self.tri[t0 as usize].wedge[corner(t0, v)]
-                    != self.tri[t1 as usize].wedge[corner(t1, v)]
-                || self.tri[t0 as usize].group != self.tri[t1 as usize].group;
-            let n0 = plan.normal[(i + nt - 1) % nt];
+                || f0.wedge[0] != f1.wedge[0]
+                || f0.group != f1.group;
+            let n0 = plan.normal[i0];
             let n1 = plan.normal[i];
             let crease = dot(n0, n1) < self.cos_feature * (dot(n0, n0) * dot(n1, n1)).sqrt();
             if is_seam {
@@ -928,8 +969,8 @@ impl VertexRemoval {
         };
         let schroeder = schroeder.max(slab);
         let mut e_fan: f64 = 0.0;
-        for &t in &self.plan.tris {
-            e_fan = e_fan.max(self.tri[t as usize].err);
+        for f in &self.plan.ring {
+            e_fan = e_fan.max(f.err);
         }
         self.plan.cost = e_fan + schroeder;
         self.plan.delta = schroeder;
@@ -1069,13 +1110,39 @@ impl VertexRemoval {
         // direction `d` the split plane's normal is `d × n`, and `(p − a)·(d × n)` is
         // the 2D cross product of the projections of `p − a` and `d`.
         let (e1, e2) = frame(n);
-        let mut uv = [[0.0f64; 2]; MAX_VALENCE + 1];
-        for (k, p) in plan.pos.iter().enumerate() {
-            uv[k] = [dot(*p, e1), dot(*p, e2)];
-        }
+        let mut uv = std::mem::take(&mut plan.uv);
+        uv.clear();
+        uv.extend(plan.pos.iter().map(|p| [dot(*p, e1), dot(*p, e2)]));
         let mut poly = [0u8; MAX_VALENCE + 1];
-        let mut w_all = [[0.0f64; 2]; MAX_VALENCE + 1];
-        let mut forbid = [0u64; MAX_VALENCE + 1];
+        let mut w_all = std::mem::take(&mut plan.w);
+        w_all.clear();
+        w_all.resize(m, [0.0; 2]);
+        let mut forbid = std::mem::take(&mut plan.forbid);
+        forbid.clear();
+        forbid.resize(m, 0);
+        let result = Self::split_loop(plan, &links, r, group, checks, self.area_eps, &uv, &mut w_all, &mut poly, &mut forbid);
+        plan.uv = uv;
+        plan.w = w_all;
+        plan.forbid = forbid;
+        result
+    }
+
+    /// The loop of [`Self::split_region`] (its buffers passed in).
+    #[allow(clippy::too_many_arguments)]
+    fn split_loop(
+        plan: &mut Plan,
+        links: &Links<'_>,
+        r: &Region,
+        group: u32,
+        checks: bool,
+        area_eps: f64,
+        uv: &[[f64; 2]],
+        w_all: &mut [[f64; 2]],
+        poly: &mut [u8; MAX_VALENCE + 1],
+        forbid: &mut [u64],
+    ) -> Result<(), Refusal> {
+        let m = plan.q.len();
+        let n = r.normal;
         while let Some((off, len)) = plan.stack.pop() {
             let len = len as usize;
             poly[..len].copy_from_slice(&plan.polys[off as usize..off as usize + len]);
@@ -1088,7 +1155,7 @@ impl VertexRemoval {
                 let [a, b, cc] = c.map(|k| plan.pos[k as usize]);
                 let tn = cross(sub(b, a), sub(cc, a));
                 let l2 = dot(tn, tn);
-                if l2 <= self.area_eps {
+                if l2 <= area_eps {
                     return Err(Refusal::Degenerate);
                 }
                 if dot(tn, n) <= 1e-6 * l2.sqrt() {
@@ -1154,11 +1221,15 @@ impl VertexRemoval {
                         // Signed distances (times |d × n|) of the other points: those
                         // strictly between i and j on one side, the rest on the other.
                         let side = |k: usize| (w[k][0] - a2[0]) * d2[1] - (w[k][1] - a2[1]) * d2[0];
+                        // A line whose nearest point is below `lim` cannot beat the
+                        // best so far (`aspect2 <= best`, with a margin for rounding),
+                        // so the scan stops at the first such point.
+                        let lim = best.map_or(0.0, |b| b.0 * (ls2 * ld2) * (1.0 - 1e-9));
                         // Both halves strictly on their own side, at least `min` away.
-                        let Some(m1) = min_positive((i + 1..j).map(side)) else {
+                        let Some(m1) = min_above((i + 1..j).map(side), lim) else {
                             continue;
                         };
-                        let Some(m2) = min_positive((0..i).chain(j + 1..len).map(|k| -side(k)))
+                        let Some(m2) = min_above((0..i).chain(j + 1..len).map(|k| -side(k)), lim)
                         else {
                             continue;
                         };
@@ -1172,7 +1243,7 @@ impl VertexRemoval {
                 }
                 match best {
                     Some((_, i, j))
-                        if checks && plan.adjacent(&links, poly[i] as usize, poly[j] as usize) =>
+                        if checks && plan.adjacent(links, poly[i] as usize, poly[j] as usize) =>
                     {
                         forbid[i] |= 1u64 << j;
                     }
@@ -1777,13 +1848,13 @@ impl VertexRemoval {
     }
 }
 
-/// The smallest of `values` when all are positive (`+∞` when there are none), else
-/// `None`.
+/// The smallest of `values` when all are positive and their squares not below
+/// `lim2` (`+∞` when there are none), else `None` (at the first that is not).
 #[inline]
-fn min_positive(values: impl Iterator<Item = f64>) -> Option<f64> {
+fn min_above(values: impl Iterator<Item = f64>, lim2: f64) -> Option<f64> {
     let mut min = f64::INFINITY;
     for v in values {
-        if v <= 0.0 {
+        if v <= 0.0 || v * v < lim2 {
             return None;
         }
         min = min.min(v);

@@ -1552,7 +1552,7 @@ impl VertexRemoval {
         }
         if self.input_tree.is_none() {
             let pos: Vec<[f32; 3]> = self.pt.iter().map(|p| p.pos.map(|x| x as f32)).collect();
-            self.input_tree = Some(Bvh::build(&pos, &self.input_tri));
+            self.input_tree = Some(Bvh::build_morton(&pos, &self.input_tri));
         }
         let Some(tree) = &self.input_tree else {
             return 0;

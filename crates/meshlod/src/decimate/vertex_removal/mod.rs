@@ -1129,6 +1129,7 @@ impl VertexRemoval {
 
     /// The loop of [`Self::split_region`] (its buffers passed in).
     #[allow(clippy::too_many_arguments)]
+    #[inline(never)]
     fn split_loop(
         plan: &mut Plan,
         links: &Links<'_>,
@@ -1223,17 +1224,31 @@ impl VertexRemoval {
                         let side = |k: usize| (w[k][0] - a2[0]) * d2[1] - (w[k][1] - a2[1]) * d2[0];
                         // A line whose nearest point is below `lim` cannot beat the
                         // best so far (`aspect2 <= best`, with a margin for rounding),
-                        // so the scan stops at the first such point.
+                        // so the scan stops at the first such point; the scans start
+                        // next to the line's ends, where the nearest points usually are.
                         let lim = best.map_or(0.0, |b| b.0 * (ls2 * ld2) * (1.0 - 1e-9));
                         // Both halves strictly on their own side, at least `min` away.
-                        let Some(m1) = min_above((i + 1..j).map(side), lim) else {
-                            continue;
+                        let mut min = f64::INFINITY;
+                        let valid = 'scan: {
+                            for k in i + 1..j {
+                                let s = side(k);
+                                if s <= 0.0 || s * s < lim {
+                                    break 'scan false;
+                                }
+                                min = min.min(s);
+                            }
+                            for k in (j + 1..len).chain(0..i) {
+                                let s = -side(k);
+                                if s <= 0.0 || s * s < lim {
+                                    break 'scan false;
+                                }
+                                min = min.min(s);
+                            }
+                            true
                         };
-                        let Some(m2) = min_above((0..i).chain(j + 1..len).map(|k| -side(k)), lim)
-                        else {
+                        if !valid {
                             continue;
-                        };
-                        let min = m1.min(m2);
+                        }
                         // aspect = (min / |s|) / |d|, compared squared (no square roots).
                         let aspect2 = min * min / (ls2 * ld2);
                         if best.is_none_or(|b| aspect2 > b.0) {
@@ -1269,6 +1284,7 @@ impl VertexRemoval {
     /// along the region's normal at `v` (when `vertical` and `v` projects into the
     /// patch) and where the spokes cross the new diagonals `diagonals[d0..]`;
     /// otherwise the Euclidean distance from `v` to the patch.
+    #[inline(never)]
     fn region_gap(&self, r: &Region, from: usize, d0: usize, vertical: bool) -> f64 {
         let plan = &self.plan;
         let m = plan.q.len();
@@ -1343,6 +1359,7 @@ impl VertexRemoval {
 
     /// Whether the closed fan projects one-to-one onto the plane of `n`: every
     /// triangle faces `n`'s side and the spokes turn once around `v`.
+    #[inline(never)]
     fn fan_is_height_field(&self, n: [f64; 3]) -> bool {
         let plan = &self.plan;
         if plan.normal.iter().any(|&t| dot(t, n) <= 0.0) {
@@ -1392,6 +1409,7 @@ impl VertexRemoval {
     /// loop-level check fails (the removal is refused in any mode), `Ok(false)` when
     /// a planned diagonal is an edge already (the full evaluation then picks another
     /// split), `Ok(true)` when the plan is what [`Mode::Full`] would have made.
+    #[inline(never)]
     fn deferred_checks_pass(&mut self) -> Result<bool, Refusal> {
         self.check_loop()?;
         for d in 0..self.plan.diagonals.len() {
@@ -1404,6 +1422,7 @@ impl VertexRemoval {
     }
 
     /// Performs the removal planned by the last successful `evaluate(v)`.
+    #[inline(never)]
     fn apply(&mut self, v: u32) {
         let e_new = self.plan.cost;
         let share = if self.plan.out.is_empty() {
@@ -1509,6 +1528,7 @@ impl VertexRemoval {
 
     /// Makes the kept plan of `v` the current plan (as an evaluation in
     /// [`Mode::Geometry`] would); `false` when there is none for its current fan.
+    #[inline(never)]
     fn restore_plan(&mut self, v: u32) -> bool {
         let k = self.kept[v as usize];
         if !k.valid || k.version != self.pt[v as usize].version {
@@ -1545,6 +1565,7 @@ impl VertexRemoval {
     /// triangles they replace (0 below [`FACING_FROM`]); marks them in `plan.away`.
     /// A triangle faces away when its normal and that of the input triangle nearest
     /// to its centroid point to opposite sides.
+    #[inline(never)]
     fn more_facing_away(&mut self) -> usize {
         self.plan.away = 0;
         if self.plan.cost < self.facing_from || self.plan.out.is_empty() {
@@ -1848,16 +1869,3 @@ impl VertexRemoval {
     }
 }
 
-/// The smallest of `values` when all are positive and their squares not below
-/// `lim2` (`+∞` when there are none), else `None` (at the first that is not).
-#[inline]
-fn min_above(values: impl Iterator<Item = f64>, lim2: f64) -> Option<f64> {
-    let mut min = f64::INFINITY;
-    for v in values {
-        if v <= 0.0 || v * v < lim2 {
-            return None;
-        }
-        min = min.min(v);
-    }
-    Some(min)
-}

@@ -1289,8 +1289,10 @@ impl VertexRemoval {
         let plan = &self.plan;
         let m = plan.q.len();
         let n = r.normal;
-        let (e1, e2) = frame(n);
-        let p2 = |p: [f64; 3]| [dot(p, e1), dot(p, e2)];
+        // The loop's coordinates in the frame of `n`, left by `split_region` for
+        // this region (`[dot(p, e1), dot(p, e2)]` with `frame(n)`).
+        let uv = &plan.uv;
+        debug_assert_eq!(uv.len(), plan.pos.len());
         // The vertical gap at `v` when `v` projects into the patch; it is never below
         // the Euclidean distance from `v` to the patch (the point above `v` is on the
         // patch), so that is only computed when there is no vertical gap.
@@ -1298,7 +1300,7 @@ impl VertexRemoval {
         if vertical {
             for t in &plan.out[from..] {
                 let [a, b, c] = t.corner.map(|k| plan.pos[k as usize]);
-                let [a2, b2, c2] = [p2(a), p2(b), p2(c)];
+                let [a2, b2, c2] = t.corner.map(|k| uv[k as usize]);
                 let det = (b2[0] - a2[0]) * (c2[1] - a2[1]) - (b2[1] - a2[1]) * (c2[0] - a2[0]);
                 if det > 0.0 {
                     let w1 = (-a2[0] * (c2[1] - a2[1]) + a2[1] * (c2[0] - a2[0])) / det;
@@ -1327,14 +1329,13 @@ impl VertexRemoval {
         let mut i = r.first;
         loop {
             let q = plan.pos[i];
-            let q2 = p2(q);
+            let q2 = uv[i];
             for dg in &plan.diagonals[d0..] {
                 let (ia, ib) = (dg[0] as usize, dg[1] as usize);
                 if ia == i || ib == i {
                     continue;
                 }
-                let (a, b) = (plan.pos[ia], plan.pos[ib]);
-                let (a2, b2) = (p2(a), p2(b));
+                let (a2, b2) = (uv[ia], uv[ib]);
                 // v2 = origin; spoke s*q2, diagonal a2 + u (b2 - a2).
                 let db = [b2[0] - a2[0], b2[1] - a2[1]];
                 let den = q2[0] * db[1] - q2[1] * db[0];
@@ -1344,6 +1345,7 @@ impl VertexRemoval {
                 let s = (a2[0] * db[1] - a2[1] * db[0]) / den;
                 let u = (a2[0] * q2[1] - a2[1] * q2[0]) / den;
                 if s > 0.0 && s < 1.0 && u > 0.0 && u < 1.0 {
+                    let (a, b) = (plan.pos[ia], plan.pos[ib]);
                     let on_spoke = scale(q, s);
                     let on_diag = add(a, scale(sub(b, a), u));
                     gap = gap.max(dot(sub(on_spoke, on_diag), n).abs());
@@ -1580,7 +1582,9 @@ impl VertexRemoval {
         };
         let plan = &mut self.plan;
         let before = plan.tris.iter().filter(|&&t| self.away[t as usize]).count();
-        let hint = plan.tris.first().copied();
+        // Hints: the previous answer (the patch is small), else the input triangle
+        // of the slot the new triangle takes.
+        let mut hint = None;
         let mut after = 0usize;
         for (i, t) in plan.out.iter().enumerate() {
             let [a, b, c] = t.corner.map(|k| self.pt[plan.q[k as usize] as usize].pos);
@@ -1596,7 +1600,8 @@ impl VertexRemoval {
                 scale(add(add(a, b), c), 1.0 / 3.0),
                 scale(n, 0.01 * self.facing_from / ln),
             );
-            if let Some(cl) = tree.closest(centroid, hint) {
+            if let Some(cl) = tree.closest(centroid, hint.or(Some(plan.tris[i]))) {
+                hint = Some(cl.triangle);
                 if dot(n, self.input_normal[cl.triangle as usize]) < 0.0 {
                     plan.away |= 1u64 << i;
                     after += 1;

@@ -307,11 +307,16 @@ struct Pt {
     cap: u32,
     /// Bumped whenever the fan changes (lazy queue invalidation).
     version: u32,
-    /// Generation mark and loop slot of the current evaluation.
-    mark: u32,
-    slot: u8,
     /// Never removed.
     locked: bool,
+}
+
+/// A point's generation mark and loop slot in the current evaluation (kept apart
+/// from [`Pt`], so the edge lookups over a loop's second ring touch 8 bytes a point).
+#[derive(Debug, Clone, Copy, Default)]
+struct Mark {
+    gen: u32,
+    slot: u8,
 }
 
 /// One triangle's record.
@@ -377,6 +382,7 @@ struct Links<'a> {
     tri: &'a [Tri],
     fans: &'a [u32],
     pt: &'a [Pt],
+    marks: &'a [Mark],
 }
 
 impl Plan {
@@ -389,8 +395,9 @@ impl Plan {
             let mut bits = 0u64;
             for &t in &l.fans[s..s + l.pt[q as usize].len as usize] {
                 for &x in &l.tri[t as usize].p {
-                    if x != q && x != self.v && l.pt[x as usize].mark == self.gen {
-                        bits |= 1u64 << l.pt[x as usize].slot;
+                    let mk = l.marks[x as usize];
+                    if x != q && x != self.v && mk.gen == self.gen {
+                        bits |= 1u64 << mk.slot;
                     }
                 }
             }
@@ -413,8 +420,10 @@ pub struct VertexRemoval {
     tri: Vec<Tri>,
     /// Whether the input had groups (materials).
     has_groups: bool,
-    /// Per point: position, fan slice, version, marks.
+    /// Per point: position, fan slice, version.
     pt: Vec<Pt>,
+    /// Per point: the marks of the current evaluation.
+    marks: Vec<Mark>,
     fans: Vec<u32>,
     fan_garbage: usize,
     live: usize,
@@ -547,6 +556,7 @@ impl VertexRemoval {
             rejections: Rejections::default(),
             order_by_bound: options.stop.max_error.is_some(),
             kept: vec![KeptPlan::default(); np],
+            marks: vec![Mark::default(); np],
             kept_tris: Vec::new(),
             kept_diagonals: Vec::new(),
         };
@@ -642,8 +652,8 @@ impl VertexRemoval {
     fn next_gen(&mut self) -> u32 {
         self.gen = self.gen.wrapping_add(1);
         if self.gen == 0 {
-            for p in &mut self.pt {
-                p.mark = 0;
+            for mk in &mut self.marks {
+                mk.gen = 0;
             }
             self.gen = 1;
         }
@@ -688,11 +698,11 @@ impl VertexRemoval {
             };
             let (ka, kb) = (NEXT[k], PREV[k]);
             let a = tt.p[ka];
-            let pa = &mut self.pt[a as usize];
-            if pa.mark == g {
+            let pa = &mut self.marks[a as usize];
+            if pa.gen == g {
                 return Err(Refusal::Kind);
             }
-            pa.mark = g;
+            pa.gen = g;
             pa.slot = i as u8;
             plan.items.push(FanItem {
                 a,
@@ -708,8 +718,8 @@ impl VertexRemoval {
         let mut has_pred = 0u64;
         for i in 0..fan_len {
             let b = plan.items[i].b;
-            let pb = &self.pt[b as usize];
-            if pb.mark == g {
+            let pb = &self.marks[b as usize];
+            if pb.gen == g {
                 let n = pb.slot;
                 if has_pred & (1u64 << n) != 0 {
                     return Err(Refusal::Kind);
@@ -760,17 +770,17 @@ impl VertexRemoval {
         // lookups (`Plan::adjacent`).
         if !plan.closed {
             let end = *plan.q.last().unwrap_or(&v);
-            let pe = &mut self.pt[end as usize];
-            if pe.mark == g {
+            let pe = &mut self.marks[end as usize];
+            if pe.gen == g {
                 return Err(Refusal::Kind);
             }
-            pe.mark = g;
+            pe.gen = g;
         }
         for (i, &q) in plan.q.iter().enumerate() {
             if q == v {
                 return Err(Refusal::Kind);
             }
-            self.pt[q as usize].slot = i as u8;
+            self.marks[q as usize].slot = i as u8;
         }
         plan.gen = g;
         plan.v = v;
@@ -1091,6 +1101,7 @@ impl VertexRemoval {
             tri: &self.tri,
             fans: &self.fans,
             pt: &self.pt,
+            marks: &self.marks,
         };
         let plan = &mut self.plan;
         let m = plan.q.len();
@@ -1617,6 +1628,7 @@ impl VertexRemoval {
             tri: &self.tri,
             fans: &self.fans,
             pt: &self.pt,
+            marks: &self.marks,
         };
         self.plan.adjacent(&links, i, j)
     }

@@ -214,8 +214,8 @@ impl Bvh {
             .map(|(t, c)| {
                 let q = |k: usize| -> u32 {
                     let x = (c[k] - cb.lo[k]) * scale[k];
-                    // NaN and out-of-range values clamp into the grid.
-                    (x.max(0.0).min(1023.0)) as u32
+                    // Out-of-range values clamp into the grid (NaN casts to 0).
+                    x.clamp(0.0, 1023.0) as u32
                 };
                 (u64::from(morton3(q(0), q(1), q(2))) << 32) | t as u64
             })
@@ -524,30 +524,30 @@ mod tests {
                 Bvh::build(&positions, &triangles),
                 Bvh::build_morton(&positions, &triangles),
             ] {
-            let mut hint = None;
-            for _ in 0..300 {
-                let p = [
-                    f64::from(lcg(&mut s)) * 12.0 - 1.0,
-                    f64::from(lcg(&mut s)) * 12.0 - 1.0,
-                    f64::from(lcg(&mut s)) * 12.0 - 1.0,
-                ];
-                let got = bvh.closest(p, hint).unwrap();
-                hint = Some(got.triangle);
-                let f = |v: [f32; 3]| [f64::from(v[0]), f64::from(v[1]), f64::from(v[2])];
-                let brute = triangles
-                    .iter()
-                    .map(|t| {
-                        let (q, _) = closest_point(
-                            p,
-                            f(positions[t[0] as usize]),
-                            f(positions[t[1] as usize]),
-                            f(positions[t[2] as usize]),
-                        );
-                        dist2(p, q)
-                    })
-                    .fold(f64::INFINITY, f64::min);
-                assert_eq!(got.dist2, brute, "n={n} p={p:?}");
-            }
+                let mut hint = None;
+                for _ in 0..300 {
+                    let p = [
+                        f64::from(lcg(&mut s)) * 12.0 - 1.0,
+                        f64::from(lcg(&mut s)) * 12.0 - 1.0,
+                        f64::from(lcg(&mut s)) * 12.0 - 1.0,
+                    ];
+                    let got = bvh.closest(p, hint).unwrap();
+                    hint = Some(got.triangle);
+                    let f = |v: [f32; 3]| [f64::from(v[0]), f64::from(v[1]), f64::from(v[2])];
+                    let brute = triangles
+                        .iter()
+                        .map(|t| {
+                            let (q, _) = closest_point(
+                                p,
+                                f(positions[t[0] as usize]),
+                                f(positions[t[1] as usize]),
+                                f(positions[t[2] as usize]),
+                            );
+                            dist2(p, q)
+                        })
+                        .fold(f64::INFINITY, f64::min);
+                    assert_eq!(got.dist2, brute, "n={n} p={p:?}");
+                }
             }
         }
     }
@@ -555,7 +555,9 @@ mod tests {
     #[test]
     fn empty_and_identical_centroids() {
         assert!(Bvh::build(&[], &[]).closest([0.0; 3], None).is_none());
-        assert!(Bvh::build_morton(&[], &[]).closest([0.0; 3], None).is_none());
+        assert!(Bvh::build_morton(&[], &[])
+            .closest([0.0; 3], None)
+            .is_none());
         // 100 copies of one triangle: no SAH split exists; the build must still end.
         let positions = vec![[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]];
         let triangles = vec![[0, 1, 2]; 100];

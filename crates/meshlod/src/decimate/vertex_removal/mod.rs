@@ -824,9 +824,8 @@ impl VertexRemoval {
         for i in lo..hi {
             let i0 = if i == 0 { nt - 1 } else { i - 1 };
             let (f0, f1) = (&plan.ring[i0], &plan.ring[i]);
-            let is_seam = plan.left[i] != plan.right[i]
-                || f0.wedge[0] != f1.wedge[0]
-                || f0.group != f1.group;
+            let is_seam =
+                plan.left[i] != plan.right[i] || f0.wedge[0] != f1.wedge[0] || f0.group != f1.group;
             let n0 = plan.normal[i0];
             let n1 = plan.normal[i];
             let crease = dot(n0, n1) < self.cos_feature * (dot(n0, n0) * dot(n1, n1)).sqrt();
@@ -1131,7 +1130,18 @@ impl VertexRemoval {
         let mut forbid = std::mem::take(&mut plan.forbid);
         forbid.clear();
         forbid.resize(m, 0);
-        let result = Self::split_loop(plan, &links, r, group, checks, self.area_eps, &uv, &mut w_all, &mut poly, &mut forbid);
+        let result = Self::split_loop(
+            plan,
+            &links,
+            r,
+            group,
+            checks,
+            self.area_eps,
+            &uv,
+            &mut w_all,
+            &mut poly,
+            &mut forbid,
+        );
         plan.uv = uv;
         plan.w = w_all;
         plan.forbid = forbid;
@@ -1885,4 +1895,3 @@ impl VertexRemoval {
             .collect()
     }
 }
-

@@ -57,10 +57,11 @@
 //! opposite sides). Once a removal's accumulated bound `e` reaches [`FACING_FROM`]
 //! of the bounding-box diagonal (below it the replaced surface is that near, and
 //! only a part thinner than twice that could be nearer on its other side), the
-//! planned triangles are tested against the input (a closest-point tree, built on
-//! first use). A removal that leaves more triangles facing away than it removes goes
-//! after every removal that does not (its key is raised above them all, as in the
-//! Melax driver); when only such removals are left the run stops, with a stop
+//! planned triangles are tested against the input (a closest-point tree in Morton
+//! order, [`Bvh::build_morton`], built on first use: cheap to build for the few
+//! thousand queries of a run). A removal that leaves more triangles facing away than it
+//! removes goes after every removal that does not (its key is raised above them all, as
+//! in the Melax driver); when only such removals are left the run stops, with a stop
 //! detail that says so, rather than fold thin parts over.
 //!
 //! # Error

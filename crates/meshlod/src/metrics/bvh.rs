@@ -177,6 +177,125 @@ impl Bvh {
         }
     }
 
+    /// Builds the same kind of hierarchy in Morton order (a linear BVH, Lauterbach et
+    /// al., "Fast BVH construction on GPUs", 2009): triangles sorted by the Morton code
+    /// of their centroid (10 bits per axis), every range split where the highest bit
+    /// of its codes changes. O(n log n) for the sort, then linear; several times
+    /// cheaper to build than [`Self::build`], for a tree that answers the same
+    /// queries exactly with somewhat more box tests (worth it when few queries follow).
+    ///
+    /// # Panics
+    /// Panics if a triangle index is out of range (validate the mesh first).
+    #[must_use]
+    pub fn build_morton(positions: &[[f32; 3]], triangles: &[[u32; 3]]) -> Self {
+        let n = triangles.len();
+        let corners: Vec<[[f32; 3]; 3]> = triangles
+            .iter()
+            .map(|t| t.map(|i| positions[i as usize]))
+            .collect();
+        // Centroids (times 3) and their bounds.
+        let sums: Vec<[f32; 3]> = corners
+            .iter()
+            .map(|c| std::array::from_fn(|k| c[0][k] + c[1][k] + c[2][k]))
+            .collect();
+        let mut cb = Aabb::EMPTY;
+        sums.iter().for_each(|&c| cb.grow(c));
+        let scale: [f32; 3] = std::array::from_fn(|k| {
+            let e = cb.hi[k] - cb.lo[k];
+            if e > 0.0 && e.is_finite() {
+                1023.0 / e
+            } else {
+                0.0
+            }
+        });
+        let mut keys: Vec<u64> = sums
+            .iter()
+            .enumerate()
+            .map(|(t, c)| {
+                let q = |k: usize| -> u32 {
+                    let x = (c[k] - cb.lo[k]) * scale[k];
+                    // Out-of-range values clamp into the grid (NaN casts to 0).
+                    x.clamp(0.0, 1023.0) as u32
+                };
+                (u64::from(morton3(q(0), q(1), q(2))) << 32) | t as u64
+            })
+            .collect();
+        drop(sums);
+        keys.sort_unstable();
+        let code = |i: usize| (keys[i] >> 32) as u32;
+        let mut nodes: Vec<Node> = Vec::with_capacity(2 * n / LEAF_SIZE + 1);
+        nodes.push(Node {
+            lo: [0.0; 3],
+            first: 0,
+            hi: [0.0; 3],
+            count: 0,
+        });
+        let mut work = vec![(0usize, 0usize, n)];
+        while let Some((ni, start, end)) = work.pop() {
+            let count = end - start;
+            if count <= LEAF_SIZE {
+                nodes[ni].first = start as u32;
+                nodes[ni].count = count as u32;
+                continue;
+            }
+            let (c0, c1) = (code(start), code(end - 1));
+            let mid = if c0 == c1 {
+                start + count / 2
+            } else {
+                // The first code with the highest differing bit set (codes sorted).
+                let bit = 31 - (c0 ^ c1).leading_zeros();
+                let (mut lo, mut hi) = (start + 1, end - 1);
+                while lo < hi {
+                    let m = lo + (hi - lo) / 2;
+                    if code(m) >> bit & 1 == 1 {
+                        hi = m;
+                    } else {
+                        lo = m + 1;
+                    }
+                }
+                lo
+            };
+            let left = nodes.len();
+            nodes.push(nodes[ni]);
+            nodes.push(nodes[ni]);
+            nodes[ni].first = left as u32;
+            nodes[ni].count = 0;
+            work.push((left + 1, mid, end));
+            work.push((left, start, mid));
+        }
+        let order: Vec<u32> = keys.iter().map(|&k| k as u32).collect();
+        drop(keys);
+        let tris: Vec<[[f32; 3]; 3]> = order.iter().map(|&t| corners[t as usize]).collect();
+        // Bounds bottom-up: children always follow their parent.
+        for ni in (0..nodes.len()).rev() {
+            let nd = nodes[ni];
+            let mut b = Aabb::EMPTY;
+            if nd.count > 0 {
+                let s = nd.first as usize;
+                for t in &tris[s..s + nd.count as usize] {
+                    t.iter().for_each(|&p| b.grow(p));
+                }
+            } else if n > 0 {
+                let l = nd.first as usize;
+                for c in &nodes[l..l + 2] {
+                    b.merge(&Aabb { lo: c.lo, hi: c.hi });
+                }
+            }
+            nodes[ni].lo = b.lo;
+            nodes[ni].hi = b.hi;
+        }
+        let mut slot_of = vec![0u32; n];
+        for (slot, &t) in order.iter().enumerate() {
+            slot_of[t as usize] = slot as u32;
+        }
+        Self {
+            nodes,
+            tris,
+            ids: order,
+            slot_of,
+        }
+    }
+
     /// Partitions `prims` by the best SAH bin boundary; returns the left count, or
     /// `None` when no split beats a leaf.
     fn sah_split(prims: &mut [Prim], cbounds: &Aabb) -> Option<usize> {
@@ -339,6 +458,18 @@ impl Bvh {
     }
 }
 
+/// Interleaves the low 10 bits of `x`, `y` and `z` (`x` lowest).
+fn morton3(x: u32, y: u32, z: u32) -> u32 {
+    fn spread(v: u32) -> u32 {
+        let mut v = v & 0x3ff;
+        v = (v | (v << 16)) & 0x0300_00ff;
+        v = (v | (v << 8)) & 0x0300_f00f;
+        v = (v | (v << 4)) & 0x030c_30c3;
+        (v | (v << 2)) & 0x0924_9249
+    }
+    spread(x) | (spread(y) << 1) | (spread(z) << 2)
+}
+
 #[inline]
 fn box_dist2(p: V3, n: &Node) -> f64 {
     let mut d = 0.0;
@@ -389,30 +520,34 @@ mod tests {
                 let b = 3 * t as u32;
                 triangles.push([b, b + 1, b + 2]);
             }
-            let bvh = Bvh::build(&positions, &triangles);
-            let mut hint = None;
-            for _ in 0..300 {
-                let p = [
-                    f64::from(lcg(&mut s)) * 12.0 - 1.0,
-                    f64::from(lcg(&mut s)) * 12.0 - 1.0,
-                    f64::from(lcg(&mut s)) * 12.0 - 1.0,
-                ];
-                let got = bvh.closest(p, hint).unwrap();
-                hint = Some(got.triangle);
-                let f = |v: [f32; 3]| [f64::from(v[0]), f64::from(v[1]), f64::from(v[2])];
-                let brute = triangles
-                    .iter()
-                    .map(|t| {
-                        let (q, _) = closest_point(
-                            p,
-                            f(positions[t[0] as usize]),
-                            f(positions[t[1] as usize]),
-                            f(positions[t[2] as usize]),
-                        );
-                        dist2(p, q)
-                    })
-                    .fold(f64::INFINITY, f64::min);
-                assert_eq!(got.dist2, brute, "n={n} p={p:?}");
+            for bvh in [
+                Bvh::build(&positions, &triangles),
+                Bvh::build_morton(&positions, &triangles),
+            ] {
+                let mut hint = None;
+                for _ in 0..300 {
+                    let p = [
+                        f64::from(lcg(&mut s)) * 12.0 - 1.0,
+                        f64::from(lcg(&mut s)) * 12.0 - 1.0,
+                        f64::from(lcg(&mut s)) * 12.0 - 1.0,
+                    ];
+                    let got = bvh.closest(p, hint).unwrap();
+                    hint = Some(got.triangle);
+                    let f = |v: [f32; 3]| [f64::from(v[0]), f64::from(v[1]), f64::from(v[2])];
+                    let brute = triangles
+                        .iter()
+                        .map(|t| {
+                            let (q, _) = closest_point(
+                                p,
+                                f(positions[t[0] as usize]),
+                                f(positions[t[1] as usize]),
+                                f(positions[t[2] as usize]),
+                            );
+                            dist2(p, q)
+                        })
+                        .fold(f64::INFINITY, f64::min);
+                    assert_eq!(got.dist2, brute, "n={n} p={p:?}");
+                }
             }
         }
     }
@@ -420,12 +555,19 @@ mod tests {
     #[test]
     fn empty_and_identical_centroids() {
         assert!(Bvh::build(&[], &[]).closest([0.0; 3], None).is_none());
+        assert!(Bvh::build_morton(&[], &[])
+            .closest([0.0; 3], None)
+            .is_none());
         // 100 copies of one triangle: no SAH split exists; the build must still end.
         let positions = vec![[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]];
         let triangles = vec![[0, 1, 2]; 100];
-        let bvh = Bvh::build(&positions, &triangles);
-        let c = bvh.closest([0.25, 0.25, 2.0], None).unwrap();
-        assert!((c.dist2 - 4.0).abs() < 1e-12);
-        assert_eq!(c.triangle, 0);
+        for bvh in [
+            Bvh::build(&positions, &triangles),
+            Bvh::build_morton(&positions, &triangles),
+        ] {
+            let c = bvh.closest([0.25, 0.25, 2.0], None).unwrap();
+            assert!((c.dist2 - 4.0).abs() < 1e-12);
+            assert_eq!(c.triangle, 0);
+        }
     }
 }

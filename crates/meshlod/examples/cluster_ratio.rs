@@ -7,7 +7,7 @@
 //! time ratios (wall time).
 //!
 //! `MESHLOD_PROFILE=mesh:ratio:n[:meshopt]` runs only ours (or only meshopt) `n`
-//! times on one thread, for `perf record` or for `perf stat -e task-clock` (CPU time,
+//! times on one thread (ours on `MESHLOD_THREADS` threads when set), for `perf record` or for `perf stat -e task-clock` (CPU time,
 //! robust to load on a shared machine; `n = 0` measures the loading alone). `MESHLOD_PROFILE=mesh:ratio:n` runs only ours `n` times (for perf).
 
 use meshlod::mesh::{Mesh, Weld};
@@ -95,8 +95,12 @@ fn main() {
         let m = load(v[0]);
         let ratio: f64 = v[1].parse().unwrap();
         let n: usize = v[2].parse().unwrap();
+        let threads = std::env::var("MESHLOD_THREADS")
+            .ok()
+            .and_then(|t| t.parse().ok())
+            .unwrap_or(1);
         let pool = rayon::ThreadPoolBuilder::new()
-            .num_threads(1)
+            .num_threads(threads)
             .build()
             .unwrap();
         if v.get(3) == Some(&"meshopt") {

@@ -177,35 +177,29 @@ impl Bvh {
         }
     }
 
-    /// Builds a hierarchy over `triangles` of `positions` from the Morton order of
-    /// their centroids (a linear BVH, Lauterbach et al., "Fast BVH construction on
-    /// GPUs", 2009): centroids are quantised to 10 bits per axis, interleaved, radix
-    /// sorted, and each range is split where its highest differing bit changes. About
-    /// ten times cheaper to build than [`Bvh::build`], with somewhat looser boxes, so
-    /// queries cost a little more: for a few queries per triangle, not millions.
-    /// Answers are exact either way.
+    /// Builds the same kind of hierarchy in Morton order (a linear BVH, Lauterbach et
+    /// al., "Fast BVH construction on GPUs", 2009): triangles sorted by the Morton code
+    /// of their centroid (10 bits per axis), every range split where the highest bit
+    /// of its codes changes. O(n log n) for the sort, then linear; several times
+    /// cheaper to build than [`Self::build`], for a tree that answers the same
+    /// queries exactly with somewhat more box tests (worth it when few queries follow).
     ///
     /// # Panics
     /// Panics if a triangle index is out of range (validate the mesh first).
     #[must_use]
     pub fn build_morton(positions: &[[f32; 3]], triangles: &[[u32; 3]]) -> Self {
         let n = triangles.len();
-        if n == 0 {
-            return Self::build(positions, triangles);
-        }
         let corners: Vec<[[f32; 3]; 3]> = triangles
             .iter()
             .map(|t| t.map(|i| positions[i as usize]))
             .collect();
-        let mut cb = Aabb::EMPTY;
-        let centroids: Vec<[f32; 3]> = corners
+        // Centroids (times 3) and their bounds.
+        let sums: Vec<[f32; 3]> = corners
             .iter()
-            .map(|c| {
-                let m = std::array::from_fn(|k| (c[0][k] + c[1][k] + c[2][k]) * (1.0 / 3.0));
-                cb.grow(m);
-                m
-            })
+            .map(|c| std::array::from_fn(|k| c[0][k] + c[1][k] + c[2][k]))
             .collect();
+        let mut cb = Aabb::EMPTY;
+        sums.iter().for_each(|&c| cb.grow(c));
         let scale: [f32; 3] = std::array::from_fn(|k| {
             let e = cb.hi[k] - cb.lo[k];
             if e > 0.0 && e.is_finite() {
@@ -214,54 +208,28 @@ impl Bvh {
                 0.0
             }
         });
-        // Spreads the low 10 bits of x to every third bit.
-        let spread = |x: u32| -> u32 {
-            let mut x = x & 0x3ff;
-            x = (x | (x << 16)) & 0x0300_00ff;
-            x = (x | (x << 8)) & 0x0300_f00f;
-            x = (x | (x << 4)) & 0x030c_30c3;
-            (x | (x << 2)) & 0x0924_9249
-        };
-        let mut keys: Vec<(u32, u32)> = centroids
+        let mut keys: Vec<u64> = sums
             .iter()
             .enumerate()
-            .map(|(t, m)| {
-                let q = |k: usize| ((m[k] - cb.lo[k]) * scale[k]).clamp(0.0, 1023.0) as u32;
-                (
-                    (spread(q(0)) << 2) | (spread(q(1)) << 1) | spread(q(2)),
-                    t as u32,
-                )
+            .map(|(t, c)| {
+                let q = |k: usize| -> u32 {
+                    let x = (c[k] - cb.lo[k]) * scale[k];
+                    // Out-of-range values clamp into the grid (NaN casts to 0).
+                    x.clamp(0.0, 1023.0) as u32
+                };
+                (u64::from(morton3(q(0), q(1), q(2))) << 32) | t as u64
             })
             .collect();
-        drop(centroids);
-        // LSD radix sort on the 30-bit code, 3 passes of 10 bits; stable, so equal
-        // codes keep triangle order (deterministic).
-        let mut tmp = vec![(0u32, 0u32); n];
-        for pass in 0..3 {
-            let shift = 10 * pass;
-            let mut count = [0usize; 1025];
-            for &(c, _) in &keys {
-                count[((c >> shift) & 0x3ff) as usize + 1] += 1;
-            }
-            for i in 0..1024 {
-                count[i + 1] += count[i];
-            }
-            for &kv in &keys {
-                let b = ((kv.0 >> shift) & 0x3ff) as usize;
-                tmp[count[b]] = kv;
-                count[b] += 1;
-            }
-            std::mem::swap(&mut keys, &mut tmp);
-        }
-        drop(tmp);
+        drop(sums);
+        keys.sort_unstable();
+        let code = |i: usize| (keys[i] >> 32) as u32;
         let mut nodes: Vec<Node> = Vec::with_capacity(2 * n / LEAF_SIZE + 1);
-        let blank = Node {
+        nodes.push(Node {
             lo: [0.0; 3],
             first: 0,
             hi: [0.0; 3],
             count: 0,
-        };
-        nodes.push(blank);
+        });
         let mut work = vec![(0usize, 0usize, n)];
         while let Some((ni, start, end)) = work.pop() {
             let count = end - start;
@@ -270,54 +238,60 @@ impl Bvh {
                 nodes[ni].count = count as u32;
                 continue;
             }
-            let (a, b) = (keys[start].0, keys[end - 1].0);
-            let mid = if a == b {
+            let (c0, c1) = (code(start), code(end - 1));
+            let mid = if c0 == c1 {
                 start + count / 2
             } else {
-                // First index whose code has the highest differing bit set.
-                let bit = 31 - (a ^ b).leading_zeros();
-                let mask = 1u32 << bit;
-                start + keys[start..end].partition_point(|&(c, _)| c & mask == 0)
+                // The first code with the highest differing bit set (codes sorted).
+                let bit = 31 - (c0 ^ c1).leading_zeros();
+                let (mut lo, mut hi) = (start + 1, end - 1);
+                while lo < hi {
+                    let m = lo + (hi - lo) / 2;
+                    if code(m) >> bit & 1 == 1 {
+                        hi = m;
+                    } else {
+                        lo = m + 1;
+                    }
+                }
+                lo
             };
             let left = nodes.len();
-            nodes.push(blank);
-            nodes.push(blank);
+            nodes.push(nodes[ni]);
+            nodes.push(nodes[ni]);
             nodes[ni].first = left as u32;
+            nodes[ni].count = 0;
             work.push((left + 1, mid, end));
             work.push((left, start, mid));
         }
-        let tris: Vec<[[f32; 3]; 3]> = keys.iter().map(|&(_, t)| corners[t as usize]).collect();
-        drop(corners);
-        // Boxes bottom-up: children always come after their parent.
-        for i in (0..nodes.len()).rev() {
-            let nd = nodes[i];
-            let mut bx = Aabb::EMPTY;
+        let order: Vec<u32> = keys.iter().map(|&k| k as u32).collect();
+        drop(keys);
+        let tris: Vec<[[f32; 3]; 3]> = order.iter().map(|&t| corners[t as usize]).collect();
+        // Bounds bottom-up: children always follow their parent.
+        for ni in (0..nodes.len()).rev() {
+            let nd = nodes[ni];
+            let mut b = Aabb::EMPTY;
             if nd.count > 0 {
                 let s = nd.first as usize;
                 for t in &tris[s..s + nd.count as usize] {
-                    t.iter().for_each(|&p| bx.grow(p));
+                    t.iter().for_each(|&p| b.grow(p));
                 }
-            } else {
+            } else if n > 0 {
                 let l = nd.first as usize;
-                for c in [l, l + 1] {
-                    bx.merge(&Aabb {
-                        lo: nodes[c].lo,
-                        hi: nodes[c].hi,
-                    });
+                for c in &nodes[l..l + 2] {
+                    b.merge(&Aabb { lo: c.lo, hi: c.hi });
                 }
             }
-            nodes[i].lo = bx.lo;
-            nodes[i].hi = bx.hi;
+            nodes[ni].lo = b.lo;
+            nodes[ni].hi = b.hi;
         }
-        let ids: Vec<u32> = keys.iter().map(|&(_, t)| t).collect();
         let mut slot_of = vec![0u32; n];
-        for (slot, &t) in ids.iter().enumerate() {
+        for (slot, &t) in order.iter().enumerate() {
             slot_of[t as usize] = slot as u32;
         }
         Self {
             nodes,
             tris,
-            ids,
+            ids: order,
             slot_of,
         }
     }
@@ -520,6 +494,18 @@ impl Bvh {
     }
 }
 
+/// Interleaves the low 10 bits of `x`, `y` and `z` (`x` lowest).
+fn morton3(x: u32, y: u32, z: u32) -> u32 {
+    fn spread(v: u32) -> u32 {
+        let mut v = v & 0x3ff;
+        v = (v | (v << 16)) & 0x0300_00ff;
+        v = (v | (v << 8)) & 0x0300_f00f;
+        v = (v | (v << 4)) & 0x030c_30c3;
+        (v | (v << 2)) & 0x0924_9249
+    }
+    spread(x) | (spread(y) << 1) | (spread(z) << 2)
+}
+
 #[inline]
 fn box_dist2(p: V3, n: &Node) -> f64 {
     let mut d = 0.0;
@@ -643,12 +629,12 @@ mod tests {
     #[test]
     fn empty_and_identical_centroids() {
         assert!(Bvh::build(&[], &[]).closest([0.0; 3], None).is_none());
-        // 100 copies of one triangle: no SAH split exists; the build must still end.
-        let positions = vec![[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]];
-        let triangles = vec![[0, 1, 2]; 100];
         assert!(Bvh::build_morton(&[], &[])
             .closest([0.0; 3], None)
             .is_none());
+        // 100 copies of one triangle: no SAH split exists; the build must still end.
+        let positions = vec![[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]];
+        let triangles = vec![[0, 1, 2]; 100];
         for bvh in [
             Bvh::build(&positions, &triangles),
             Bvh::build_morton(&positions, &triangles),

@@ -93,34 +93,56 @@ fn cross(corners: &[[f32; 3]; 3], origin: [f64; 3]) -> ([[f64; 3]; 3], [f64; 3],
     (p, c, c[0] * c[0] + c[1] * c[1] + c[2] * c[2])
 }
 
-/// [`Prepared::new`] on `n ≤ BLOCK` triangles, `corners(i)` for `i < n`, into
-/// `out[..n]`: the same values bit for bit, with the square roots and divisions in
+/// A block of up to [`BLOCK`] triangles between [`prepare_block`] and their
+/// [`Self::plane`]s: corners, cross products, their lengths and inverse lengths.
+pub(crate) struct Block {
+    p: [[[f64; 3]; 3]; BLOCK],
+    c: [[f64; 3]; BLOCK],
+    len: [f64; BLOCK],
+    inv: [f64; BLOCK],
+}
+
+impl Block {
+    /// An empty block.
+    pub fn new() -> Self {
+        Self {
+            p: [[[0.0; 3]; 3]; BLOCK],
+            c: [[0.0; 3]; BLOCK],
+            len: [0.0; BLOCK],
+            inv: [0.0; BLOCK],
+        }
+    }
+
+    /// The prepared triangle `i`: [`Prepared::new`] bit for bit (computed where it
+    /// is added, so that it stays in registers).
+    #[inline(always)]
+    pub fn plane(&self, i: usize) -> Prepared {
+        Prepared::from_parts(self.p[i], self.c[i], self.len[i], self.inv[i])
+    }
+}
+
+/// The first half of [`Prepared::new`] on `n ≤ BLOCK` triangles, `corners(i)` for
+/// `i < n`, into `out` (then [`Block::plane`]): the square roots and divisions in
 /// loops of their own so that they pipeline (and vectorise).
 #[inline]
 pub(crate) fn prepare_block(
     n: usize,
     corners: impl Fn(usize) -> [[f32; 3]; 3],
     origin: [f64; 3],
-    out: &mut [Prepared; BLOCK],
+    out: &mut Block,
 ) {
     let n = n.min(BLOCK);
-    let mut c = [[0.0f64; 3]; BLOCK];
-    let mut len = [0.0f64; BLOCK];
     for i in 0..n {
         let (p, ci, l2) = cross(&corners(i), origin);
-        out[i].p = p;
-        c[i] = ci;
-        len[i] = l2;
+        out.p[i] = p;
+        out.c[i] = ci;
+        out.len[i] = l2;
     }
-    for l in &mut len[..n] {
+    for l in &mut out.len[..n] {
         *l = l.sqrt();
     }
-    let mut inv = [0.0f64; BLOCK];
-    for (v, l) in inv[..n].iter_mut().zip(&len[..n]) {
+    for (v, l) in out.inv[..n].iter_mut().zip(&out.len[..n]) {
         *v = 1.0 / *l;
-    }
-    for i in 0..n {
-        out[i] = Prepared::from_parts(out[i].p, c[i], len[i], inv[i]);
     }
 }
 
@@ -228,11 +250,11 @@ fn blocks_prepare_bit_for_bit() {
         })
         .collect();
     let origin = [-1.0, -2.0, 0.5];
-    let mut out = [Prepared::ZERO; BLOCK];
+    let mut out = Block::new();
     prepare_block(tris.len() - BLOCK, |i| tris[BLOCK + i], origin, &mut out);
     for i in 0..tris.len() - BLOCK {
         let a = Prepared::new(&tris[BLOCK + i], origin);
-        let b = out[i];
+        let b = out.plane(i);
         assert_eq!(
             (a.p, a.area.to_bits(), a.q.map(f64::to_bits)),
             (b.p, b.area.to_bits(), b.q.map(f64::to_bits)),

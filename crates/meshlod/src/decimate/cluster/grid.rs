@@ -20,6 +20,8 @@ pub struct Grid {
     inv: f64,
     /// Cells along x, y and z.
     pub dims: [u32; 3],
+    /// `dims − 1` as f64.
+    last: [f64; 3],
 }
 
 impl Grid {
@@ -51,6 +53,7 @@ impl Grid {
             cell,
             inv,
             dims,
+            last: dims.map(|d| f64::from(d - 1)),
         }
     }
 
@@ -58,12 +61,13 @@ impl Grid {
     #[inline]
     #[must_use]
     pub fn coords(&self, p: [f32; 3]) -> [u32; 3] {
-        // For x ≥ 0 the saturating cast truncates, which is floor (and avoids a libm
-        // call); negatives and NaN become 0; the clamp keeps rounding at the far face
-        // in.
+        // For x ≥ 0 truncation is floor (and avoids a libm call); negatives and NaN
+        // become 0; the clamp to the last cell (an integer, so clamping before or
+        // after truncating is the same) keeps rounding at the far face in, and makes
+        // the cast a plain conversion of an in-range value.
         let axis = |k: usize| {
             let x = (f64::from(p[k]) - self.origin[k]) * self.inv;
-            (x.max(0.0) as u32).min(self.dims[k] - 1)
+            x.max(0.0).min(self.last[k]) as u32
         };
         [axis(0), axis(1), axis(2)]
     }
@@ -73,6 +77,22 @@ impl Grid {
     #[must_use]
     pub fn key(&self, p: [f32; 3]) -> u64 {
         pack(self.coords(p))
+    }
+
+    /// The linear index of a point's cell, `(i·ny + j)·nz + k` (below
+    /// [`Self::cell_count`]).
+    #[inline]
+    #[must_use]
+    pub fn linear(&self, p: [f32; 3]) -> u64 {
+        let [i, j, k] = self.coords(p).map(u64::from);
+        (i * u64::from(self.dims[1]) + j) * u64::from(self.dims[2]) + k
+    }
+
+    /// The cell coordinates of a [`Self::linear`] index.
+    #[must_use]
+    pub fn unlinear(&self, l: u64) -> [u32; 3] {
+        let (ny, nz) = (u64::from(self.dims[1]), u64::from(self.dims[2]));
+        [(l / nz / ny) as u32, (l / nz % ny) as u32, (l % nz) as u32]
     }
 
     /// The minimum corner of the cell with coordinates `c`, relative to
@@ -223,6 +243,21 @@ impl CellTable {
             }
             i = (i + 1) & self.mask;
         }
+    }
+
+    /// [`Self::id`] of the cell with [`Grid::linear`] index `l` on `grid` (the grid
+    /// the table was made for): in the flat layout the index is the slot.
+    #[inline]
+    pub fn id_linear(&mut self, l: u64, grid: &Grid) -> u32 {
+        if self.dense.is_empty() {
+            return self.id(pack(grid.unlinear(l)));
+        }
+        let slot = &mut self.dense[l as usize];
+        if *slot == u32::MAX {
+            *slot = self.keys.len() as u32;
+            self.keys.push(pack(grid.unlinear(l)));
+        }
+        *slot
     }
 
     fn grow(&mut self) {
@@ -467,5 +502,19 @@ mod tests {
             }
         }
         assert_eq!(flat.keys(), hashed.keys());
+        // Linear indices give the same ids in both layouts.
+        let mut flat2 = CellTable::for_grid(&g, 4, 1 << 20);
+        let mut hashed2 = CellTable::for_grid(&g, 4, 0);
+        for n in 0..500u32 {
+            let f = n as f32;
+            let p = [(f * 0.37) % 3.0, (f * 0.71) % 5.0, (f * 0.13) % 2.0];
+            let l = g.linear(p);
+            assert!(l < g.cell_count());
+            assert_eq!(pack(g.unlinear(l)), g.key(p));
+            assert_eq!(flat2.id_linear(l, &g), flat.id(g.key(p)));
+            assert_eq!(hashed2.id_linear(l, &g), flat.id(g.key(p)));
+        }
+        assert_eq!(flat2.keys(), flat.keys());
+        assert_eq!(hashed2.keys(), flat.keys());
     }
 }

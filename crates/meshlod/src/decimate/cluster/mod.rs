@@ -83,20 +83,28 @@
 //! built). Coinciding representatives can still remove a few triangles after that.
 //!
 //! # Tables
+//! In memory, a vertex's cell is its linear index `(i·ny + j)·nz + k` as a `u32`
+//! while the grid has at most 2³² cells (the probes gather 4 bytes per corner, and
+//! the index is the flat table's slot), else its packed key `i·2⁴² + j·2²¹ + k`.
 //! Cell ids come from a flat array over the grid when the grid is small (in memory:
 //! at most eight grid cells per vertex; streamed: sixteen per expected occupied
 //! cell, so memory stays proportional to the occupied cells), from open addressing
 //! otherwise. Triangle planes are computed a block of 64 at a time (square roots
-//! and divisions in loops of their own), bit for bit as one at a time. The output's
+//! and divisions in loops of their own, the quadric entries where they are added),
+//! bit for bit as one at a time. The output's
 //! manifold counts sort its edge sides per vertex (linear in the output).
 //!
 //! # Parallelism and determinism
 //! Vertex keys and the probes' distinct-cell tests are parallel maps. On inputs of
 //! 2¹⁸ triangles or more, accumulation is parallel over contiguous ranges of cells:
-//! each worker scans the triangles in order and adds the contributions to its own
-//! cells, so each cell's sums are added in input order whatever the number of
-//! threads, and equal, bit for bit, to the sequential streaming path. The output is
-//! deterministic.
+//! the smallest and largest cell of every block of 64 triangles is found first (in
+//! parallel), then each worker visits, in order, the blocks that touch its cells
+//! (cells are numbered in vertex order, so on a coherent mesh about its share) and
+//! adds the contributions to its own cells, so each cell's sums are added in input
+//! order whatever the number of threads, and equal, bit for bit, to the sequential
+//! streaming path; the output's manifold counts run beside the attribute sources.
+//! Below 2¹⁸ triangles all of this is sequential: on the shared 2-core test machine
+//! waking the second thread cost more than it saved. The output is deterministic.
 //!
 //! # Streaming
 //! [`cluster_file`] reads the file twice with [`crate::io::stream`]: once for the
@@ -115,12 +123,15 @@ use crate::io::stream;
 use crate::io::IoError;
 use crate::mesh::{Mesh, Weld};
 use crate::simplify::Distance;
-use accumulate::{add_triangle, prepare_block, representative, Acc, Prepared, BLOCK, MIN_WEIGHT};
+use accumulate::{
+    add_triangle, prepare_block, representative, Acc, Block, Prepared, BLOCK, MIN_WEIGHT,
+};
 use grid::KeyTriples;
 pub use grid::{CellTable, Grid, TripleSet, MAX_CELLS_PER_AXIS};
 use rayon::prelude::*;
 use serde::Serialize;
 use std::path::Path;
+use std::sync::atomic::{AtomicBool, Ordering};
 use thiserror::Error;
 
 /// How a cell's representative point is chosen (see the module documentation).
@@ -576,6 +587,7 @@ pub fn cluster_mesh(
         options,
         factors: corner_factors(mesh, options),
         keys: Vec::new(),
+        small: Vec::new(),
         keys_cell: f64::NAN,
         triples: KeyTriples::default(),
         distinct: Vec::new(),
@@ -861,8 +873,13 @@ impl Sampler {
     }
 }
 
-/// Minimum items per parallel task in the per-vertex and per-triangle maps.
+/// Minimum items per parallel task in the per-vertex maps.
 const PAR_MIN: usize = 1 << 15;
+
+/// Inputs from this many triangles test their cells in parallel in the probes. Below
+/// it (the shared test meshes, a few milliseconds a call) waking the pool's threads
+/// cost more than they saved on a loaded 2-core machine.
+const PAR_COUNT: usize = 1 << 18;
 
 /// Triangles whose three corner keys differ, copies over the same three keys counted
 /// once. The distinct-key test is parallel for large inputs; the set is filled in
@@ -880,7 +897,8 @@ fn count_distinct(
         r.clear();
     }
     let distinct = |k: &[u64; 3]| (k[0] != k[1]) & (k[1] != k[2]) & (k[0] != k[2]);
-    if n < 8 * PAR_MIN || rayon::current_num_threads() == 1 {
+    let threads = rayon::current_num_threads();
+    if n < PAR_COUNT || threads == 1 {
         // Without a branch per triangle: every triangle is written to the buffer,
         // which only advances past the distinct ones.
         let mut buf = [[0u64; 3]; 256];
@@ -906,10 +924,11 @@ fn count_distinct(
         }
         flush(&buf[..m], &idx[..m]);
     } else {
-        let chunks: Vec<Vec<(u32, [u64; 3])>> = (0..n.div_ceil(PAR_MIN))
+        let per = n.div_ceil(4 * threads).max(PAR_COUNT / 4);
+        let chunks: Vec<Vec<(u32, [u64; 3])>> = (0..n.div_ceil(per))
             .into_par_iter()
             .map(|c| {
-                (c * PAR_MIN..((c + 1) * PAR_MIN).min(n))
+                (c * per..((c + 1) * per).min(n))
                     .map(|t| (t as u32, keys_of(t)))
                     .filter(|(_, k)| distinct(k))
                     .collect()
@@ -993,13 +1012,21 @@ fn feature_factors(mesh: &Mesh) -> Vec<f32> {
         .collect()
 }
 
+/// Whether the cells of `grid` have [`Grid::linear`] indices that fit in a `u32`.
+fn small_grid(grid: &Grid) -> bool {
+    grid.cell_count() <= u64::from(u32::MAX)
+}
+
 /// The in-memory pipeline: probes and first stages on per-vertex cell keys.
 struct InMemory<'a> {
     mesh: &'a Mesh,
     options: &'a ClusterOptions,
     factors: Option<Vec<f32>>,
-    /// The cell key of every vertex on the grid of side `keys_cell` (NaN: none yet).
+    /// The cell of every vertex on the grid of side `keys_cell` (NaN: none yet): its
+    /// [`Grid::linear`] index in `small` when the grid has at most 2³² cells (half
+    /// the memory to gather in the probes), else its key in `keys`.
     keys: Vec<u64>,
+    small: Vec<u32>,
     keys_cell: f64,
     triples: KeyTriples,
     /// The triangles with three distinct cells on the grid of side `distinct_cell`
@@ -1020,15 +1047,21 @@ struct MemStaged {
 impl InMemory<'_> {
     /// Fills [`Self::keys`] for `grid` (the origin never changes; only the side).
     fn keys_for(&mut self, grid: &Grid) {
-        if self.keys_cell.to_bits() == grid.cell.to_bits() && !self.keys.is_empty() {
+        if self.keys_cell.to_bits() == grid.cell.to_bits() {
             return;
         }
-        self.mesh
-            .positions
-            .par_iter()
-            .with_min_len(PAR_MIN)
-            .map(|&p| grid.key(p))
-            .collect_into_vec(&mut self.keys);
+        let positions = self.mesh.positions.par_iter().with_min_len(PAR_MIN);
+        if small_grid(grid) {
+            positions
+                .map(|&p| grid.linear(p) as u32)
+                .collect_into_vec(&mut self.small);
+            self.keys.clear();
+        } else {
+            positions
+                .map(|&p| grid.key(p))
+                .collect_into_vec(&mut self.keys);
+            self.small.clear();
+        }
         self.keys_cell = grid.cell;
     }
 }
@@ -1038,14 +1071,24 @@ impl Pipeline for InMemory<'_> {
 
     fn count(&mut self, grid: &Grid, goal: usize) -> usize {
         self.keys_for(grid);
-        let (tris, keys) = (&self.mesh.triangles, &self.keys);
-        let c = count_distinct(
-            tris.len(),
-            |t| tris[t].map(|v| keys[v as usize]),
-            &mut self.triples,
-            goal,
-            Some(&mut self.distinct),
-        );
+        let (tris, keys, small) = (&self.mesh.triangles, &self.keys, &self.small);
+        let c = if small_grid(grid) {
+            count_distinct(
+                tris.len(),
+                |t| tris[t].map(|v| u64::from(small[v as usize])),
+                &mut self.triples,
+                goal,
+                Some(&mut self.distinct),
+            )
+        } else {
+            count_distinct(
+                tris.len(),
+                |t| tris[t].map(|v| keys[v as usize]),
+                &mut self.triples,
+                goal,
+                Some(&mut self.distinct),
+            )
+        };
         self.distinct_cell = grid.cell;
         c
     }
@@ -1063,7 +1106,14 @@ impl Pipeline for InMemory<'_> {
         // bytes per grid cell: allowed up to eight per vertex.
         let dense_limit = (8 * mesh.positions.len()).max(1 << 12);
         let mut table = CellTable::for_grid(grid, expected_cells(expect), dense_limit);
-        let vcell: Vec<u32> = self.keys.iter().map(|&k| table.id(k)).collect();
+        let vcell: Vec<u32> = if small_grid(grid) {
+            self.small
+                .iter()
+                .map(|&l| table.id_linear(u64::from(l), grid))
+                .collect()
+        } else {
+            self.keys.iter().map(|&k| table.id(k)).collect()
+        };
         let (mut stage1, mut set) = Stage1::new(expect);
         let cells_of = |t: usize| mesh.triangles[t].map(|v| vcell[v as usize]);
         if self.distinct_cell.to_bits() == grid.cell.to_bits() {
@@ -1108,78 +1158,131 @@ impl Pipeline for InMemory<'_> {
         // every cell adds its contributions in input order (as the streaming path).
         // Triangles go in blocks: the planes of a block are computed in one tight loop
         // (square roots and divisions overlap), then added to the cells in order.
-        // The vertices some triangle uses (for the attributes below), marked by the
-        // worker that owns cell 0 (every worker scans all triangles).
+        // The vertices some triangle uses (for the attributes below).
         let mut used = vec![false; mesh.positions.len()];
-        let used_ref = std::sync::Mutex::new(Some(&mut used[..]));
-        let accumulate = |part: &mut [Acc], start: u32| {
-            let mut guard = used_ref
-                .lock()
-                .unwrap_or_else(std::sync::PoisonError::into_inner);
-            let used = if start == 0 { guard.take() } else { None };
-            drop(guard);
-            match how {
-                Representative::Quadric => accumulate_part::<true>(
+        let accumulate =
+            |part: &mut [Acc], start: u32, used: Option<&mut [bool]>, spans: Option<&[Span]>| {
+                let factors = if how == Representative::Quadric {
+                    None
+                } else {
+                    factors
+                };
+                let a = Accumulation {
                     mesh,
-                    vcell_ref,
-                    grid.origin,
-                    how,
-                    None,
-                    part,
-                    start,
-                    used,
-                ),
-                _ => accumulate_part::<false>(
-                    mesh,
-                    vcell_ref,
-                    grid.origin,
+                    vcell: vcell_ref,
+                    origin: grid.origin,
                     how,
                     factors,
-                    part,
-                    start,
-                    used,
-                ),
-            }
-        };
+                    spans,
+                };
+                match how {
+                    Representative::Quadric => a.run::<true>(part, start, used),
+                    _ => a.run::<false>(part, start, used),
+                }
+            };
         let shards = rayon::current_num_threads().clamp(1, 64);
-        // Every worker scans all triangles: worth it on large inputs only.
-        if shards == 1 || mesh.triangles.len() < PAR_ACCUMULATE {
-            accumulate(&mut accs, 0);
+        let n = mesh.triangles.len();
+        if shards == 1 || n < PAR_ACCUMULATE {
+            accumulate(&mut accs, 0, Some(&mut used), None);
         } else {
+            // Workers own contiguous ranges of cells. The span of cell ids of every
+            // block of triangles (and the used vertices) first, in parallel, so that a
+            // worker only visits the blocks that touch its cells: cells are numbered in
+            // vertex order, so on coherent meshes a worker visits about its share.
+            let marks: Vec<AtomicBool> = (0..used.len()).map(|_| AtomicBool::new(false)).collect();
+            let spans: Vec<Span> = (0..n.div_ceil(BLOCK))
+                .into_par_iter()
+                .with_min_len(64)
+                .map(|b| {
+                    let mut span = (u32::MAX, 0u32);
+                    for tri in &mesh.triangles[b * BLOCK..((b + 1) * BLOCK).min(n)] {
+                        for &v in tri {
+                            let c = vcell[v as usize];
+                            span = (span.0.min(c), span.1.max(c));
+                            marks[v as usize].store(true, Ordering::Relaxed);
+                        }
+                    }
+                    span
+                })
+                .collect();
             let per = cells.div_ceil(shards).max(1);
             accs.par_chunks_mut(per)
                 .enumerate()
-                .for_each(|(s, part)| accumulate(part, (s * per) as u32));
+                .for_each(|(s, part)| accumulate(part, (s * per) as u32, None, Some(&spans)));
+            for (u, m) in used.iter_mut().zip(marks) {
+                *u = m.into_inner();
+            }
         }
-        let mut out = finish(grid, &table, &accs, stage1, how, mesh.group_names.clone());
+        let mut out = finish(
+            grid,
+            &table,
+            &accs,
+            stage1,
+            how,
+            mesh.group_names.clone(),
+            false,
+        );
         // Attributes: per output vertex the closest input vertex of its cells (that a
-        // triangle uses).
+        // triangle uses), beside the output's manifold counts. In parallel over ranges
+        // of vertices, merged in range order (ties keep the lowest index, as
+        // sequentially).
         let n_out = out.mesh.positions.len();
-        let mut best = vec![(f64::INFINITY, u32::MAX); n_out];
-        for (v, &c) in vcell.iter().enumerate() {
-            if !used[v] {
-                continue;
+        let closest = |range: std::ops::Range<usize>| {
+            let mut best = vec![(f64::INFINITY, u32::MAX); n_out];
+            for v in range {
+                if !used[v] {
+                    continue;
+                }
+                let o = out.vertex_of_cell[vcell[v] as usize];
+                if o == u32::MAX {
+                    continue;
+                }
+                let r = out.mesh.positions[o as usize];
+                let p = mesh.positions[v];
+                let d: f64 = (0..3)
+                    .map(|k| {
+                        let x = f64::from(p[k]) - f64::from(r[k]);
+                        x * x
+                    })
+                    .sum();
+                let b = &mut best[o as usize];
+                if d < b.0 {
+                    *b = (d, v as u32);
+                }
             }
-            let o = out.vertex_of_cell[c as usize];
-            if o == u32::MAX {
-                continue;
-            }
-            let r = out.mesh.positions[o as usize];
-            let p = mesh.positions[v];
-            let d: f64 = (0..3)
-                .map(|k| {
-                    let x = f64::from(p[k]) - f64::from(r[k]);
-                    x * x
-                })
-                .sum();
-            let b = &mut best[o as usize];
-            if d < b.0 {
-                *b = (d, v as u32);
+            best
+        };
+        let nv = vcell.len();
+        let parts = if shards > 2 && nv >= 2 * PAR_MIN {
+            (shards - 1).min(nv / PAR_MIN)
+        } else {
+            1
+        };
+        let per = nv.div_ceil(parts);
+        let topo = || edge_counts(&out.mesh.triangles, n_out);
+        let sources = || -> Vec<Vec<(f64, u32)>> {
+            (0..parts)
+                .into_par_iter()
+                .map(|i| closest(i * per..((i + 1) * per).min(nv)))
+                .collect()
+        };
+        let (topo, mut partial) = if n < PAR_ACCUMULATE {
+            (topo(), sources())
+        } else {
+            rayon::join(topo, sources)
+        };
+        topo.record(&mut out.stats);
+        let mut best = partial.swap_remove(0);
+        for other in &partial {
+            for (b, o) in best.iter_mut().zip(other) {
+                if o.0 < b.0 {
+                    *b = *o;
+                }
             }
         }
         let source: Vec<u32> = best.iter().map(|b| b.1).collect();
         out.mesh.attributes = mesh.attributes.gather(&source);
-        out.stats.working_bytes += vcell.len() * 4 + self.keys.len() * 8;
+        out.stats.working_bytes += vcell.len() * 4 + self.keys.len() * 8 + self.small.len() * 4;
         Clustered {
             mesh: out.mesh,
             vertex_source: source,
@@ -1192,57 +1295,79 @@ impl Pipeline for InMemory<'_> {
 }
 
 /// Inputs from this many triangles accumulate in parallel (over ranges of cells).
-const PAR_ACCUMULATE: usize = 8 * PAR_MIN;
+const PAR_ACCUMULATE: usize = 1 << 18;
 
-/// Adds every triangle of `mesh` (in order) to the cells `start .. start +
-/// part.len()` it touches, `vcell` the cell of every vertex. Triangles whose cells
-/// are all outside the range are skipped before their planes are computed. With
-/// `used`, marks there every vertex a triangle uses.
-#[allow(clippy::too_many_arguments)]
-fn accumulate_part<const QUADRIC: bool>(
-    mesh: &Mesh,
-    vcell: &[u32],
+/// The smallest and largest cell id of the corners of a block of [`BLOCK`] triangles.
+type Span = (u32, u32);
+
+/// What [`Accumulation::run`] reads.
+struct Accumulation<'a> {
+    mesh: &'a Mesh,
+    /// The cell of every vertex.
+    vcell: &'a [u32],
     origin: [f64; 3],
     how: Representative,
-    factors: Option<&[f32]>,
-    part: &mut [Acc],
-    start: u32,
-    mut used: Option<&mut [bool]>,
-) {
-    let len = part.len() as u32;
-    let owned = |c: u32| c.wrapping_sub(start) < len;
-    let mut which = [0u32; BLOCK];
-    let mut cells_of = [[0u32; 3]; BLOCK];
-    let mut planes = [Prepared::ZERO; BLOCK];
-    let n = mesh.triangles.len();
-    for first in (0..n).step_by(BLOCK) {
-        let last = (first + BLOCK).min(n);
-        let mut m = 0;
-        for t in first..last {
-            let tri = &mesh.triangles[t];
-            let c = tri.map(|v| vcell[v as usize]);
-            if let Some(u) = used.as_deref_mut() {
-                for &v in tri {
-                    u[v as usize] = true;
+    factors: Option<&'a [f32]>,
+    /// The [`Span`] of every block of triangles: blocks outside a worker's cells are
+    /// skipped unread (`None`: visit all).
+    spans: Option<&'a [Span]>,
+}
+
+impl Accumulation<'_> {
+    /// Adds every triangle of the mesh (in order) to the cells `start .. start +
+    /// part.len()` it touches. Triangles whose cells are all outside the range are
+    /// skipped before their planes are computed. With `used`, marks there every
+    /// vertex a triangle uses.
+    fn run<const QUADRIC: bool>(
+        &self,
+        part: &mut [Acc],
+        start: u32,
+        mut used: Option<&mut [bool]>,
+    ) {
+        let mesh = self.mesh;
+        let vcell = self.vcell;
+        let len = part.len() as u32;
+        let owned = |c: u32| c.wrapping_sub(start) < len;
+        let mut which = [0u32; BLOCK];
+        let mut cells_of = [[0u32; 3]; BLOCK];
+        let mut planes = Block::new();
+        let n = mesh.triangles.len();
+        for (b, first) in (0..n).step_by(BLOCK).enumerate() {
+            if let Some(spans) = self.spans {
+                let (lo, hi) = spans[b];
+                if hi < start || lo >= start + len {
+                    continue;
                 }
             }
-            which[m] = t as u32;
-            cells_of[m] = c;
-            m += usize::from(owned(c[0]) | owned(c[1]) | owned(c[2]));
-        }
-        prepare_block(
-            m,
-            |i| mesh.triangles[which[i] as usize].map(|v| mesh.positions[v as usize]),
-            origin,
-            &mut planes,
-        );
-        for ((plane, &t), &c) in planes.iter().zip(&which[..m]).zip(&cells_of[..m]) {
-            let w = corner_weights(plane, how, |k| {
-                factors.map_or(1.0, |f| {
-                    f64::from(f[mesh.triangles[t as usize][k] as usize])
-                })
-            });
-            add_triangle::<QUADRIC>(part, start, c, plane, w);
+            let last = (first + BLOCK).min(n);
+            let mut m = 0;
+            for t in first..last {
+                let tri = &mesh.triangles[t];
+                let c = tri.map(|v| vcell[v as usize]);
+                if let Some(u) = used.as_deref_mut() {
+                    for &v in tri {
+                        u[v as usize] = true;
+                    }
+                }
+                which[m] = t as u32;
+                cells_of[m] = c;
+                m += usize::from(owned(c[0]) | owned(c[1]) | owned(c[2]));
+            }
+            prepare_block(
+                m,
+                |i| mesh.triangles[which[i] as usize].map(|v| mesh.positions[v as usize]),
+                self.origin,
+                &mut planes,
+            );
+            for (i, (&t, &c)) in which[..m].iter().zip(&cells_of[..m]).enumerate() {
+                let plane = &planes.plane(i);
+                let w = corner_weights(plane, self.how, |k| {
+                    self.factors.map_or(1.0, |f| {
+                        f64::from(f[mesh.triangles[t as usize][k] as usize])
+                    })
+                });
+                add_triangle::<QUADRIC>(part, start, c, plane, w);
+            }
         }
     }
 }
@@ -1333,7 +1458,7 @@ fn build_streamed(
     let set_bytes = set.bytes();
     drop(set);
     let got = stage1.cells.len();
-    let mut out = finish(grid, &table, &accs, stage1, how, s.group_names);
+    let mut out = finish(grid, &table, &accs, stage1, how, s.group_names, true);
     out.stats.working_bytes += set_bytes;
     Ok((
         Clustered {
@@ -1368,7 +1493,9 @@ struct Finished {
 }
 
 /// Representatives, the second clean-up (coinciding representatives, zero area,
-/// duplicates over welded positions) and compaction: shared by both paths.
+/// duplicates over welded positions) and compaction: shared by both paths. Without
+/// `topology` the manifold counts are left at 0 (the caller computes them).
+#[allow(clippy::too_many_arguments)]
 fn finish(
     grid: &Grid,
     table: &CellTable,
@@ -1376,6 +1503,7 @@ fn finish(
     stage1: Stage1,
     how: Representative,
     group_names: Vec<String>,
+    topology: bool,
 ) -> Finished {
     let reps: Vec<([f32; 3], Option<f64>)> = accs
         .par_iter()
@@ -1441,7 +1569,11 @@ fn finish(
         .iter()
         .map(|&p| vertex_of_point[p as usize])
         .collect();
-    let topo = edge_counts(&triangles, out_positions.len());
+    let topo = if topology {
+        edge_counts(&triangles, out_positions.len())
+    } else {
+        EdgeCounts::default()
+    };
     let has_groups = !group_names.is_empty() || groups.iter().any(|&g| g != 0);
     let mesh = Mesh {
         positions: out_positions,
@@ -1474,11 +1606,20 @@ fn finish(
 }
 
 /// The manifold counts of the output.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 struct EdgeCounts {
     non_manifold_edges: usize,
     non_manifold_vertices: usize,
     boundary_edges: usize,
+}
+
+impl EdgeCounts {
+    /// Writes the counts into `stats`.
+    fn record(self, stats: &mut ClusterStats) {
+        stats.non_manifold_edges = self.non_manifold_edges;
+        stats.non_manifold_vertices = self.non_manifold_vertices;
+        stats.boundary_edges = self.boundary_edges;
+    }
 }
 
 /// Boundary and non-manifold edges and non-manifold vertices of `triangles` over

@@ -239,6 +239,36 @@ fn thread_count_does_not_change_the_result() {
     assert_eq!(a.stats.max_error.to_bits(), b.stats.max_error.to_bits());
 }
 
+/// Above the parallel threshold (2¹⁸ triangles) the workers that visit only the
+/// blocks touching their cells give the sequential result, vertex sources included
+/// (with unreferenced vertices, which must not become sources).
+#[test]
+fn parallel_accumulation_matches_sequential_on_large_input() {
+    let mut m = generate::torus(600, 230, 1.0, 0.35);
+    assert!(m.triangles.len() >= super::PAR_ACCUMULATE);
+    let referenced = m.positions.len();
+    // Unreferenced vertices at the positions of used ones: never a source.
+    let extra: Vec<[f32; 3]> = m.positions.iter().step_by(997).copied().collect();
+    m.positions.extend(extra);
+    let run = |threads: usize| {
+        rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap()
+            .install(|| cluster(&m, 20_000))
+    };
+    let a = run(1);
+    let b = run(2);
+    let c = run(3);
+    assert!(!a.mesh.triangles.is_empty());
+    for other in [&b, &c] {
+        assert_eq!(a.mesh, other.mesh);
+        assert_eq!(a.vertex_source, other.vertex_source);
+        assert_eq!(a.stats, other.stats);
+    }
+    assert!(a.vertex_source.iter().all(|&v| (v as usize) < referenced));
+}
+
 /// The streaming path on a file gives the mesh the in-memory path gives on the same
 /// file read into memory: binary and ASCII STL, binary PLY, OBJ; with a cell size
 /// and with a target count (the file is small, so the search sample is every

@@ -57,10 +57,11 @@
 //! opposite sides). Once a removal's accumulated bound `e` reaches [`FACING_FROM`]
 //! of the bounding-box diagonal (below it the replaced surface is that near, and
 //! only a part thinner than twice that could be nearer on its other side), the
-//! planned triangles are tested against the input (a closest-point tree, built on
-//! first use). A removal that leaves more triangles facing away than it removes goes
-//! after every removal that does not (its key is raised above them all, as in the
-//! Melax driver); when only such removals are left the run stops, with a stop
+//! planned triangles are tested against the input (a closest-point tree in Morton
+//! order, [`Bvh::build_morton`], built on first use: cheap to build for the few
+//! thousand queries of a run). A removal that leaves more triangles facing away than it
+//! removes goes after every removal that does not (its key is raised above them all, as
+//! in the Melax driver); when only such removals are left the run stops, with a stop
 //! detail that says so, rather than fold thin parts over.
 //!
 //! # Error
@@ -232,6 +233,10 @@ struct Region {
 struct Plan {
     /// Loop points `q_i`.
     q: Vec<u32>,
+    /// The fan's triangles as read by `VertexRemoval::build_loop`: in fan order
+    /// (`items`) and in loop order (`ring[i]` is `tris[i]`).
+    items: Vec<FanItem>,
+    ring: Vec<FanItem>,
     /// `tris[i]` = triangle `(v, q_i, q_{i+1})`.
     tris: Vec<u32>,
     /// Whether the loop is closed.
@@ -254,6 +259,9 @@ struct Plan {
     gen: u32,
     v: u32,
     /// Work buffers of the splitting.
+    uv: Vec<[f64; 2]>,
+    w: Vec<[f64; 2]>,
+    forbid: Vec<u64>,
     polys: Vec<u8>,
     stack: Vec<(u32, u32)>,
     diagonals: Vec<[u8; 2]>,
@@ -275,6 +283,20 @@ struct Plan {
     away: u64,
 }
 
+/// One triangle `(v, a, b)` of the fan of `v`, read once from its record.
+#[derive(Debug, Clone, Copy, Default)]
+struct FanItem {
+    a: u32,
+    b: u32,
+    t: u32,
+    /// Wedges of `v`, `a` and `b` in the triangle.
+    wedge: [u32; 3],
+    group: u32,
+    err: f64,
+    /// Fan index of the triangle whose edge starts at `b` (`u8::MAX`: none).
+    next: u8,
+}
+
 /// One point's record.
 #[derive(Debug, Clone, Copy, Default)]
 struct Pt {
@@ -286,11 +308,16 @@ struct Pt {
     cap: u32,
     /// Bumped whenever the fan changes (lazy queue invalidation).
     version: u32,
-    /// Generation mark and loop slot of the current evaluation.
-    mark: u32,
-    slot: u8,
     /// Never removed.
     locked: bool,
+}
+
+/// A point's generation mark and loop slot in the current evaluation (kept apart
+/// from [`Pt`], so the edge lookups over a loop's second ring touch 8 bytes a point).
+#[derive(Debug, Clone, Copy, Default)]
+struct Mark {
+    gen: u32,
+    slot: u8,
 }
 
 /// One triangle's record.
@@ -356,6 +383,7 @@ struct Links<'a> {
     tri: &'a [Tri],
     fans: &'a [u32],
     pt: &'a [Pt],
+    marks: &'a [Mark],
 }
 
 impl Plan {
@@ -368,8 +396,9 @@ impl Plan {
             let mut bits = 0u64;
             for &t in &l.fans[s..s + l.pt[q as usize].len as usize] {
                 for &x in &l.tri[t as usize].p {
-                    if x != q && x != self.v && l.pt[x as usize].mark == self.gen {
-                        bits |= 1u64 << l.pt[x as usize].slot;
+                    let mk = l.marks[x as usize];
+                    if x != q && x != self.v && mk.gen == self.gen {
+                        bits |= 1u64 << mk.slot;
                     }
                 }
             }
@@ -392,8 +421,10 @@ pub struct VertexRemoval {
     tri: Vec<Tri>,
     /// Whether the input had groups (materials).
     has_groups: bool,
-    /// Per point: position, fan slice, version, marks.
+    /// Per point: position, fan slice, version.
     pt: Vec<Pt>,
+    /// Per point: the marks of the current evaluation.
+    marks: Vec<Mark>,
     fans: Vec<u32>,
     fan_garbage: usize,
     live: usize,
@@ -526,6 +557,7 @@ impl VertexRemoval {
             rejections: Rejections::default(),
             order_by_bound: options.stop.max_error.is_some(),
             kept: vec![KeptPlan::default(); np],
+            marks: vec![Mark::default(); np],
             kept_tris: Vec::new(),
             kept_diagonals: Vec::new(),
         };
@@ -621,8 +653,8 @@ impl VertexRemoval {
     fn next_gen(&mut self) -> u32 {
         self.gen = self.gen.wrapping_add(1);
         if self.gen == 0 {
-            for p in &mut self.pt {
-                p.mark = 0;
+            for mk in &mut self.marks {
+                mk.gen = 0;
             }
             self.gen = 1;
         }
@@ -637,67 +669,96 @@ impl VertexRemoval {
         }
     }
 
-    /// Fills `plan.q`, `plan.tris`, `plan.closed` from the fan of `v`.
+    /// Fills `plan.q`, `plan.tris`, `plan.ring`, `plan.closed` from the fan of `v`,
+    /// and marks the loop points (generation `plan.gen`, slot = loop index).
+    ///
+    /// Each triangle's record is read once. The fan edge `a → b` of each triangle
+    /// (`(v, a, b)` in its orientation) is linked to the triangle whose edge starts
+    /// at `b` through the marks of the `a` points, so the walk is linear in the
+    /// valence. Refused as complex: a point twice as a start or twice as an end of a
+    /// fan edge, more than one open end, several fans, `v` in its own loop.
     fn build_loop(&mut self, v: u32) -> Result<(), Refusal> {
+        const NEXT: [usize; 3] = [1, 2, 0];
+        const PREV: [usize; 3] = [2, 0, 1];
         let fan_len = self.pt[v as usize].len as usize;
         if fan_len == 0 || fan_len > MAX_VALENCE {
             return Err(Refusal::Kind);
         }
-        let mut items = [(0u32, 0u32, 0u32); MAX_VALENCE];
-        for (i, &t) in self.fan(v).iter().enumerate() {
-            let tt = self.tri[t as usize].p;
-            let k = if tt[0] == v {
+        let g = self.next_gen();
+        let s = self.pt[v as usize].start as usize;
+        let plan = &mut self.plan;
+        plan.items.clear();
+        for (i, &t) in self.fans[s..s + fan_len].iter().enumerate() {
+            let tt = &self.tri[t as usize];
+            let k = if tt.p[0] == v {
                 0
-            } else if tt[1] == v {
+            } else if tt.p[1] == v {
                 1
             } else {
                 2
             };
-            items[i] = (tt[(k + 1) % 3], tt[(k + 2) % 3], t);
-        }
-        let items = &items[..fan_len];
-        // Each point at most once as a start and once as an end of a fan edge.
-        let mut start = None;
-        let mut starts = 0;
-        for (i, it) in items.iter().enumerate() {
-            let mut as_a = 0;
-            let mut as_b = 0;
-            for o in items {
-                as_a += usize::from(o.0 == it.0);
-                as_b += usize::from(o.1 == it.0);
-            }
-            if as_a > 1 || as_b > 1 {
+            let (ka, kb) = (NEXT[k], PREV[k]);
+            let a = tt.p[ka];
+            let pa = &mut self.marks[a as usize];
+            if pa.gen == g {
                 return Err(Refusal::Kind);
             }
-            if as_b == 0 {
-                starts += 1;
-                start = Some(i);
+            pa.gen = g;
+            pa.slot = i as u8;
+            plan.items.push(FanItem {
+                a,
+                b: tt.p[kb],
+                t,
+                wedge: [tt.wedge[k], tt.wedge[ka], tt.wedge[kb]],
+                group: tt.group,
+                err: tt.err,
+                next: u8::MAX,
+            });
+        }
+        // Link each edge to its successor; no point may end two edges.
+        let mut has_pred = 0u64;
+        for i in 0..fan_len {
+            let b = plan.items[i].b;
+            let pb = &self.marks[b as usize];
+            if pb.gen == g {
+                let n = pb.slot;
+                if has_pred & (1u64 << n) != 0 {
+                    return Err(Refusal::Kind);
+                }
+                has_pred |= 1u64 << n;
+                plan.items[i].next = n;
             }
         }
+        let starts = fan_len - has_pred.count_ones() as usize;
         if starts > 1 {
             return Err(Refusal::Kind);
         }
-        let plan = &mut self.plan;
+        let first = if starts == 1 {
+            (!has_pred).trailing_zeros() as usize
+        } else {
+            0
+        };
         plan.q.clear();
         plan.tris.clear();
-        plan.closed = start.is_none();
-        let first = start.unwrap_or(0);
+        plan.ring.clear();
+        plan.closed = starts == 0;
         let mut cur = first;
         loop {
-            plan.q.push(items[cur].0);
-            plan.tris.push(items[cur].2);
-            let b = items[cur].1;
-            match items.iter().position(|o| o.0 == b) {
-                Some(n) if n == first => break,
-                Some(n) => {
+            let it = plan.items[cur];
+            plan.q.push(it.a);
+            plan.tris.push(it.t);
+            plan.ring.push(it);
+            match it.next {
+                u8::MAX => {
+                    plan.q.push(it.b);
+                    break;
+                }
+                n if usize::from(n) == first => break,
+                n => {
                     if plan.tris.len() >= fan_len {
                         return Err(Refusal::Kind);
                     }
-                    cur = n;
-                }
-                None => {
-                    plan.q.push(b);
-                    break;
+                    cur = usize::from(n);
                 }
             }
         }
@@ -705,19 +766,25 @@ impl VertexRemoval {
             // several fans around v
             return Err(Refusal::Kind);
         }
-        // No point twice in the loop (a pinched fan).
-        // The marks and slots also serve the edge lookups (`Plan::adjacent`).
-        let g = self.next_gen();
-        for (i, &q) in self.plan.q.iter().enumerate() {
-            let p = &mut self.pt[q as usize];
-            if p.mark == g || q == v {
+        // Every start point is a distinct loop point (marked above); the open end is
+        // the one point not marked yet. The marks and slots also serve the edge
+        // lookups (`Plan::adjacent`).
+        if !plan.closed {
+            let end = *plan.q.last().unwrap_or(&v);
+            let pe = &mut self.marks[end as usize];
+            if pe.gen == g {
                 return Err(Refusal::Kind);
             }
-            p.mark = g;
-            p.slot = i as u8;
+            pe.gen = g;
         }
-        self.plan.gen = g;
-        self.plan.v = v;
+        for (i, &q) in plan.q.iter().enumerate() {
+            if q == v {
+                return Err(Refusal::Kind);
+            }
+            self.marks[q as usize].slot = i as u8;
+        }
+        plan.gen = g;
+        plan.v = v;
         Ok(())
     }
 
@@ -734,30 +801,16 @@ impl VertexRemoval {
         plan.normal.clear();
         plan.right.clear();
         plan.left.clear();
-        let corner = |t: u32, p: u32| -> usize {
-            let tt = self.tri[t as usize].p;
-            if tt[0] == p {
-                0
-            } else if tt[1] == p {
-                1
-            } else {
-                2
-            }
-        };
         for i in 0..nt {
-            let j = (i + 1) % m;
+            let j = if i + 1 == m { 0 } else { i + 1 };
             plan.normal.push(cross(plan.pos[i], plan.pos[j]));
         }
         for i in 0..m {
-            let q = plan.q[i];
-            let r = if i < nt {
-                self.tri[plan.tris[i] as usize].wedge[corner(plan.tris[i], q)]
-            } else {
-                DEAD
-            };
-            let l = if i > 0 || plan.closed {
-                let t = plan.tris[(i + nt - 1) % nt];
-                self.tri[t as usize].wedge[corner(t, q)]
+            let r = if i < nt { plan.ring[i].wedge[1] } else { DEAD };
+            let l = if i > 0 {
+                plan.ring[i - 1].wedge[2]
+            } else if plan.closed {
+                plan.ring[nt - 1].wedge[2]
             } else {
                 DEAD
             };
@@ -770,13 +823,11 @@ impl VertexRemoval {
         let (mut ns, mut nc) = (0, 0);
         let (lo, hi) = if plan.closed { (0, m) } else { (1, m - 1) };
         for i in lo..hi {
-            let t0 = plan.tris[(i + nt - 1) % nt];
-            let t1 = plan.tris[i];
-            let is_seam = plan.left[i] != plan.right[i]
-                || self.tri[t0 as usize].wedge[corner(t0, v)]
-                    != self.tri[t1 as usize].wedge[corner(t1, v)]
-                || self.tri[t0 as usize].group != self.tri[t1 as usize].group;
-            let n0 = plan.normal[(i + nt - 1) % nt];
+            let i0 = if i == 0 { nt - 1 } else { i - 1 };
+            let (f0, f1) = (&plan.ring[i0], &plan.ring[i]);
+            let is_seam =
+                plan.left[i] != plan.right[i] || f0.wedge[0] != f1.wedge[0] || f0.group != f1.group;
+            let n0 = plan.normal[i0];
             let n1 = plan.normal[i];
             let crease = dot(n0, n1) < self.cos_feature * (dot(n0, n0) * dot(n1, n1)).sqrt();
             if is_seam {
@@ -928,8 +979,8 @@ impl VertexRemoval {
         };
         let schroeder = schroeder.max(slab);
         let mut e_fan: f64 = 0.0;
-        for &t in &self.plan.tris {
-            e_fan = e_fan.max(self.tri[t as usize].err);
+        for f in &self.plan.ring {
+            e_fan = e_fan.max(f.err);
         }
         self.plan.cost = e_fan + schroeder;
         self.plan.delta = schroeder;
@@ -1050,6 +1101,7 @@ impl VertexRemoval {
             tri: &self.tri,
             fans: &self.fans,
             pt: &self.pt,
+            marks: &self.marks,
         };
         let plan = &mut self.plan;
         let m = plan.q.len();
@@ -1069,13 +1121,51 @@ impl VertexRemoval {
         // direction `d` the split plane's normal is `d × n`, and `(p − a)·(d × n)` is
         // the 2D cross product of the projections of `p − a` and `d`.
         let (e1, e2) = frame(n);
-        let mut uv = [[0.0f64; 2]; MAX_VALENCE + 1];
-        for (k, p) in plan.pos.iter().enumerate() {
-            uv[k] = [dot(*p, e1), dot(*p, e2)];
-        }
+        let mut uv = std::mem::take(&mut plan.uv);
+        uv.clear();
+        uv.extend(plan.pos.iter().map(|p| [dot(*p, e1), dot(*p, e2)]));
         let mut poly = [0u8; MAX_VALENCE + 1];
-        let mut w_all = [[0.0f64; 2]; MAX_VALENCE + 1];
-        let mut forbid = [0u64; MAX_VALENCE + 1];
+        let mut w_all = std::mem::take(&mut plan.w);
+        w_all.clear();
+        w_all.resize(m, [0.0; 2]);
+        let mut forbid = std::mem::take(&mut plan.forbid);
+        forbid.clear();
+        forbid.resize(m, 0);
+        let result = Self::split_loop(
+            plan,
+            &links,
+            r,
+            group,
+            checks,
+            self.area_eps,
+            &uv,
+            &mut w_all,
+            &mut poly,
+            &mut forbid,
+        );
+        plan.uv = uv;
+        plan.w = w_all;
+        plan.forbid = forbid;
+        result
+    }
+
+    /// The loop of [`Self::split_region`] (its buffers passed in).
+    #[allow(clippy::too_many_arguments)]
+    #[inline(never)]
+    fn split_loop(
+        plan: &mut Plan,
+        links: &Links<'_>,
+        r: &Region,
+        group: u32,
+        checks: bool,
+        area_eps: f64,
+        uv: &[[f64; 2]],
+        w_all: &mut [[f64; 2]],
+        poly: &mut [u8; MAX_VALENCE + 1],
+        forbid: &mut [u64],
+    ) -> Result<(), Refusal> {
+        let m = plan.q.len();
+        let n = r.normal;
         while let Some((off, len)) = plan.stack.pop() {
             let len = len as usize;
             poly[..len].copy_from_slice(&plan.polys[off as usize..off as usize + len]);
@@ -1088,7 +1178,7 @@ impl VertexRemoval {
                 let [a, b, cc] = c.map(|k| plan.pos[k as usize]);
                 let tn = cross(sub(b, a), sub(cc, a));
                 let l2 = dot(tn, tn);
-                if l2 <= self.area_eps {
+                if l2 <= area_eps {
                     return Err(Refusal::Degenerate);
                 }
                 if dot(tn, n) <= 1e-6 * l2.sqrt() {
@@ -1154,15 +1244,33 @@ impl VertexRemoval {
                         // Signed distances (times |d × n|) of the other points: those
                         // strictly between i and j on one side, the rest on the other.
                         let side = |k: usize| (w[k][0] - a2[0]) * d2[1] - (w[k][1] - a2[1]) * d2[0];
+                        // A line whose nearest point is below `lim` cannot beat the
+                        // best so far (`aspect2 <= best`, with a margin for rounding),
+                        // so the scan stops at the first such point; the scans start
+                        // next to the line's ends, where the nearest points usually are.
+                        let lim = best.map_or(0.0, |b| b.0 * (ls2 * ld2) * (1.0 - 1e-9));
                         // Both halves strictly on their own side, at least `min` away.
-                        let Some(m1) = min_positive((i + 1..j).map(side)) else {
-                            continue;
+                        let mut min = f64::INFINITY;
+                        let valid = 'scan: {
+                            for k in i + 1..j {
+                                let s = side(k);
+                                if s <= 0.0 || s * s < lim {
+                                    break 'scan false;
+                                }
+                                min = min.min(s);
+                            }
+                            for k in (j + 1..len).chain(0..i) {
+                                let s = -side(k);
+                                if s <= 0.0 || s * s < lim {
+                                    break 'scan false;
+                                }
+                                min = min.min(s);
+                            }
+                            true
                         };
-                        let Some(m2) = min_positive((0..i).chain(j + 1..len).map(|k| -side(k)))
-                        else {
+                        if !valid {
                             continue;
-                        };
-                        let min = m1.min(m2);
+                        }
                         // aspect = (min / |s|) / |d|, compared squared (no square roots).
                         let aspect2 = min * min / (ls2 * ld2);
                         if best.is_none_or(|b| aspect2 > b.0) {
@@ -1172,7 +1280,7 @@ impl VertexRemoval {
                 }
                 match best {
                     Some((_, i, j))
-                        if checks && plan.adjacent(&links, poly[i] as usize, poly[j] as usize) =>
+                        if checks && plan.adjacent(links, poly[i] as usize, poly[j] as usize) =>
                     {
                         forbid[i] |= 1u64 << j;
                     }
@@ -1198,12 +1306,15 @@ impl VertexRemoval {
     /// along the region's normal at `v` (when `vertical` and `v` projects into the
     /// patch) and where the spokes cross the new diagonals `diagonals[d0..]`;
     /// otherwise the Euclidean distance from `v` to the patch.
+    #[inline(never)]
     fn region_gap(&self, r: &Region, from: usize, d0: usize, vertical: bool) -> f64 {
         let plan = &self.plan;
         let m = plan.q.len();
         let n = r.normal;
-        let (e1, e2) = frame(n);
-        let p2 = |p: [f64; 3]| [dot(p, e1), dot(p, e2)];
+        // The loop's coordinates in the frame of `n`, left by `split_region` for
+        // this region (`[dot(p, e1), dot(p, e2)]` with `frame(n)`).
+        let uv = &plan.uv;
+        debug_assert_eq!(uv.len(), plan.pos.len());
         // The vertical gap at `v` when `v` projects into the patch; it is never below
         // the Euclidean distance from `v` to the patch (the point above `v` is on the
         // patch), so that is only computed when there is no vertical gap.
@@ -1211,7 +1322,7 @@ impl VertexRemoval {
         if vertical {
             for t in &plan.out[from..] {
                 let [a, b, c] = t.corner.map(|k| plan.pos[k as usize]);
-                let [a2, b2, c2] = [p2(a), p2(b), p2(c)];
+                let [a2, b2, c2] = t.corner.map(|k| uv[k as usize]);
                 let det = (b2[0] - a2[0]) * (c2[1] - a2[1]) - (b2[1] - a2[1]) * (c2[0] - a2[0]);
                 if det > 0.0 {
                     let w1 = (-a2[0] * (c2[1] - a2[1]) + a2[1] * (c2[0] - a2[0])) / det;
@@ -1240,14 +1351,13 @@ impl VertexRemoval {
         let mut i = r.first;
         loop {
             let q = plan.pos[i];
-            let q2 = p2(q);
+            let q2 = uv[i];
             for dg in &plan.diagonals[d0..] {
                 let (ia, ib) = (dg[0] as usize, dg[1] as usize);
                 if ia == i || ib == i {
                     continue;
                 }
-                let (a, b) = (plan.pos[ia], plan.pos[ib]);
-                let (a2, b2) = (p2(a), p2(b));
+                let (a2, b2) = (uv[ia], uv[ib]);
                 // v2 = origin; spoke s*q2, diagonal a2 + u (b2 - a2).
                 let db = [b2[0] - a2[0], b2[1] - a2[1]];
                 let den = q2[0] * db[1] - q2[1] * db[0];
@@ -1257,6 +1367,7 @@ impl VertexRemoval {
                 let s = (a2[0] * db[1] - a2[1] * db[0]) / den;
                 let u = (a2[0] * q2[1] - a2[1] * q2[0]) / den;
                 if s > 0.0 && s < 1.0 && u > 0.0 && u < 1.0 {
+                    let (a, b) = (plan.pos[ia], plan.pos[ib]);
                     let on_spoke = scale(q, s);
                     let on_diag = add(a, scale(sub(b, a), u));
                     gap = gap.max(dot(sub(on_spoke, on_diag), n).abs());
@@ -1272,6 +1383,7 @@ impl VertexRemoval {
 
     /// Whether the closed fan projects one-to-one onto the plane of `n`: every
     /// triangle faces `n`'s side and the spokes turn once around `v`.
+    #[inline(never)]
     fn fan_is_height_field(&self, n: [f64; 3]) -> bool {
         let plan = &self.plan;
         if plan.normal.iter().any(|&t| dot(t, n) <= 0.0) {
@@ -1321,6 +1433,7 @@ impl VertexRemoval {
     /// loop-level check fails (the removal is refused in any mode), `Ok(false)` when
     /// a planned diagonal is an edge already (the full evaluation then picks another
     /// split), `Ok(true)` when the plan is what [`Mode::Full`] would have made.
+    #[inline(never)]
     fn deferred_checks_pass(&mut self) -> Result<bool, Refusal> {
         self.check_loop()?;
         for d in 0..self.plan.diagonals.len() {
@@ -1333,6 +1446,7 @@ impl VertexRemoval {
     }
 
     /// Performs the removal planned by the last successful `evaluate(v)`.
+    #[inline(never)]
     fn apply(&mut self, v: u32) {
         let e_new = self.plan.cost;
         let share = if self.plan.out.is_empty() {
@@ -1438,6 +1552,7 @@ impl VertexRemoval {
 
     /// Makes the kept plan of `v` the current plan (as an evaluation in
     /// [`Mode::Geometry`] would); `false` when there is none for its current fan.
+    #[inline(never)]
     fn restore_plan(&mut self, v: u32) -> bool {
         let k = self.kept[v as usize];
         if !k.valid || k.version != self.pt[v as usize].version {
@@ -1474,6 +1589,7 @@ impl VertexRemoval {
     /// triangles they replace (0 below [`FACING_FROM`]); marks them in `plan.away`.
     /// A triangle faces away when its normal and that of the input triangle nearest
     /// to its centroid point to opposite sides.
+    #[inline(never)]
     fn more_facing_away(&mut self) -> usize {
         self.plan.away = 0;
         if self.plan.cost < self.facing_from || self.plan.out.is_empty() {
@@ -1481,14 +1597,16 @@ impl VertexRemoval {
         }
         if self.input_tree.is_none() {
             let pos: Vec<[f32; 3]> = self.pt.iter().map(|p| p.pos.map(|x| x as f32)).collect();
-            self.input_tree = Some(Bvh::build(&pos, &self.input_tri));
+            self.input_tree = Some(Bvh::build_morton(&pos, &self.input_tri));
         }
         let Some(tree) = &self.input_tree else {
             return 0;
         };
         let plan = &mut self.plan;
         let before = plan.tris.iter().filter(|&&t| self.away[t as usize]).count();
-        let hint = plan.tris.first().copied();
+        // Hints: the previous answer (the patch is small), else the input triangle
+        // of the slot the new triangle takes.
+        let mut hint = None;
         let mut after = 0usize;
         for (i, t) in plan.out.iter().enumerate() {
             let [a, b, c] = t.corner.map(|k| self.pt[plan.q[k as usize] as usize].pos);
@@ -1504,7 +1622,8 @@ impl VertexRemoval {
                 scale(add(add(a, b), c), 1.0 / 3.0),
                 scale(n, 0.01 * self.facing_from / ln),
             );
-            if let Some(cl) = tree.closest(centroid, hint) {
+            if let Some(cl) = tree.closest(centroid, hint.or(Some(plan.tris[i]))) {
+                hint = Some(cl.triangle);
                 if dot(n, self.input_normal[cl.triangle as usize]) < 0.0 {
                     plan.away |= 1u64 << i;
                     after += 1;
@@ -1520,6 +1639,7 @@ impl VertexRemoval {
             tri: &self.tri,
             fans: &self.fans,
             pt: &self.pt,
+            marks: &self.marks,
         };
         self.plan.adjacent(&links, i, j)
     }
@@ -1775,18 +1895,4 @@ impl VertexRemoval {
             .map(|t| t.err)
             .collect()
     }
-}
-
-/// The smallest of `values` when all are positive (`+∞` when there are none), else
-/// `None`.
-#[inline]
-fn min_positive(values: impl Iterator<Item = f64>) -> Option<f64> {
-    let mut min = f64::INFINITY;
-    for v in values {
-        if v <= 0.0 {
-            return None;
-        }
-        min = min.min(v);
-    }
-    Some(min)
 }

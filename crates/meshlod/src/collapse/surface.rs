@@ -327,12 +327,16 @@ impl Surface {
     /// plus the slack), so the allocation is kept and reused by later appends instead
     /// of growing. Each fan keeps its order.
     fn compact_fans(&mut self) {
-        let mut order: Vec<u32> = (0..self.pos.len() as u32)
+        // Sorted by start through packed keys (one sequential pass to build them,
+        // no lookups while sorting).
+        let mut order: Vec<u64> = (0..self.pos.len() as u32)
             .filter(|&p| self.fan_slot[p as usize].len > 0)
+            .map(|p| (u64::from(self.fan_slot[p as usize].start) << 32) | u64::from(p))
             .collect();
-        order.sort_unstable_by_key(|&p| self.fan_slot[p as usize].start);
+        order.sort_unstable();
         let mut w = 0usize;
-        for &p in &order {
+        for &key in &order {
+            let p = key as u32;
             let slot = self.fan_slot[p as usize];
             let (s, l) = (slot.start as usize, slot.len as usize);
             debug_assert!(w <= s && slot.cap >= slot.len);

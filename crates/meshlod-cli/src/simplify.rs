@@ -91,6 +91,10 @@ pub struct SimplifyArgs {
     /// edges).
     #[arg(long)]
     pub keep_corners: bool,
+    /// qem, melax: skip the orientation repair (diagonal swaps that turn triangles
+    /// facing away from the input back toward it without raising the distance).
+    #[arg(long)]
+    pub no_facing_repair: bool,
     /// Write ASCII where the format has a choice (PLY, STL).
     #[arg(long)]
     pub ascii: bool,
@@ -180,6 +184,11 @@ struct CliReport {
     non_edge_contractions: usize,
     degenerate_removed: usize,
     duplicate_removed: usize,
+    /// Diagonal swaps of the orientation repair (qem, melax).
+    facing_flips: usize,
+    /// Output triangles facing away from the input before and after the repair.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    facing_away: Option<[usize; 2]>,
     /// Symmetric Hausdorff distance of output vs input (with --measure), in the units
     /// of `error`.
     #[serde(skip_serializing_if = "Option::is_none")]
@@ -297,6 +306,7 @@ fn options(args: &SimplifyArgs) -> Result<SimplifyOptions> {
         o = o.with_feature_angle(a);
     }
     o = o.with_keep_corners(args.keep_corners);
+    o = o.with_facing_repair(!args.no_facing_repair);
     Ok(o.with_lock_boundary(args.lock_boundary))
 }
 
@@ -453,6 +463,8 @@ fn report(
         non_edge_contractions: agg.non_edge,
         degenerate_removed: agg.degenerate,
         duplicate_removed: agg.duplicate,
+        facing_flips: agg.facing_flips,
+        facing_away: agg.facing_away,
         hausdorff: measure.map(|d| {
             if args.absolute || d.bbox_diagonal <= 0.0 {
                 d.hausdorff
@@ -491,6 +503,8 @@ struct Aggregate {
     non_edge: usize,
     degenerate: usize,
     duplicate: usize,
+    facing_flips: usize,
+    facing_away: Option<[usize; 2]>,
     cluster: Option<ClusterStats>,
 }
 
@@ -513,6 +527,8 @@ impl Aggregate {
             non_edge: 0,
             degenerate: 0,
             duplicate: 0,
+            facing_flips: 0,
+            facing_away: None,
             cluster: None,
         }
     }
@@ -539,6 +555,12 @@ impl Aggregate {
         self.non_edge += r.non_edge_contractions;
         self.degenerate += r.degenerate_removed;
         self.duplicate += r.duplicate_removed;
+        self.facing_flips += r.facing_flips;
+        if let Some([b, a]) = r.facing_away {
+            let [sb, sa] = self.facing_away.get_or_insert([0, 0]);
+            *sb += b;
+            *sa += a;
+        }
         if let Some(c) = &r.cluster {
             // Per-part clustering: the counts are summed in the first part's stats.
             match &mut self.cluster {
@@ -657,6 +679,12 @@ fn print_text(r: &CliReport) {
         "  collapses    {} ({} non-edge); repaired {} degenerate, {} duplicate triangles",
         r.collapses, r.non_edge_contractions, r.degenerate_removed, r.duplicate_removed
     );
+    if let Some([before, after]) = r.facing_away {
+        println!(
+            "  orientation  {before} triangles facing away from the input, {after} after {} diagonal swaps",
+            r.facing_flips
+        );
+    }
     if let Some(d) = &r.measure {
         let diag = d.bbox_diagonal.max(f64::MIN_POSITIVE);
         println!(

@@ -178,6 +178,12 @@ pub struct SimplifyOptions {
     /// feature edges). Default `false` (corners go by their distance to the average
     /// plane, as in `vtkDecimate`).
     pub keep_corners: bool,
+    /// [`Method::Qem`] and [`Method::Melax`]: after simplifying, swap the diagonal
+    /// of quads whose triangles face away from the input surface when that turns
+    /// them back without raising the distance to the input (see the `facing`
+    /// module's rules). No vertex moves; topology, seams and groups are kept; a
+    /// closest-point tree over the input is built for it. Default `true`.
+    pub facing_repair: bool,
 }
 
 impl Default for SimplifyOptions {
@@ -199,11 +205,19 @@ impl Default for SimplifyOptions {
             cluster: ClusterOptions::default(),
             feature_angle: crate::decimate::vertex_removal::DEFAULT_FEATURE_ANGLE,
             keep_corners: false,
+            facing_repair: true,
         }
     }
 }
 
 impl SimplifyOptions {
+    /// Sets [`Self::facing_repair`].
+    #[must_use]
+    pub fn with_facing_repair(mut self, repair: bool) -> Self {
+        self.facing_repair = repair;
+        self
+    }
+
     /// Sets [`Self::method`].
     #[must_use]
     pub fn with_method(mut self, method: Method) -> Self {
@@ -450,6 +464,13 @@ pub struct Report {
     pub rescans: usize,
     /// Whether the soft triangle-quality guard was switched off to reach the target.
     pub soft_filters_relaxed: bool,
+    /// Diagonal swaps made by the orientation repair ([`SimplifyOptions::facing_repair`]).
+    pub facing_flips: usize,
+    /// Output triangles facing away from the input surface (normal opposite to the
+    /// input triangle nearest their centroid) before the orientation repair, and
+    /// after it; `None` when the repair did not run.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub facing_away: Option<[usize; 2]>,
     /// What vertex clustering did ([`Method::Cluster`] only), including the
     /// non-manifold edge and vertex counts of the result.
     #[serde(skip_serializing_if = "Option::is_none")]
@@ -581,7 +602,13 @@ pub fn simplify_observed(
             (outcome, surface.output_triangles())
         }
     };
-    let (out, vertex_source) = build_output(mesh, triangles, &mut surface);
+    let (mut out, vertex_source) = build_output(mesh, triangles, &mut surface);
+    // The simplifier's structures go before the closest-point tree is built.
+    drop(surface);
+    let facing = (options.facing_repair
+        && outcome.collapses > 0
+        && matches!(options.method, Method::Qem | Method::Melax))
+    .then(|| facing::repair(mesh, &mut out, diag, Some(&vertex_source)));
     let report = Report {
         method: options.method.name(),
         triangles_in: mesh.triangles.len(),
@@ -606,6 +633,8 @@ pub fn simplify_observed(
         rejections: outcome.rejections,
         rescans: outcome.rescans,
         soft_filters_relaxed: outcome.soft_filters_relaxed,
+        facing_flips: facing.map_or(0, |f| f.flips),
+        facing_away: facing.map(|f| [f.before, f.after]),
         cluster: None,
     };
     Ok(Simplified {
@@ -716,6 +745,8 @@ fn cluster_result(
         rejections: Rejections::default(),
         rescans: 0,
         soft_filters_relaxed: false,
+        facing_flips: 0,
+        facing_away: None,
         cluster: Some(c.stats),
     };
     Simplified {
@@ -830,6 +861,7 @@ fn close_pairs(surface: &mut Surface, t: f64) -> Vec<[u32; 2]> {
     pairs
 }
 
+mod facing;
 #[cfg(test)]
 mod tests;
 #[cfg(test)]

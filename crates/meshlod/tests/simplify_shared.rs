@@ -93,6 +93,13 @@ fn check(
     } else {
         0
     };
+    if let Some([before, after]) = r.facing_away {
+        if after > before {
+            bad.push(format!(
+                "{name}: orientation repair {before} -> {after} facing away"
+            ));
+        }
+    }
     if f as f64 > (0.03 * got).max(5.0) {
         bad.push(format!("{name}: {f} of {got} triangles flipped"));
     }

@@ -128,7 +128,9 @@ impl ProgressiveMesh {
     /// [`Method::Qem`] with [`Placement::Endpoint`], with topology preserved. Use
     /// `with_target_triangles(0)` to record down to the coarsest mesh the operator
     /// allows. Extracting `n` triangles afterwards gives the same mesh as running
-    /// [`crate::simplify::simplify`] with the same options and target `n`.
+    /// [`crate::simplify::simplify`] with the same options and target `n` and
+    /// [`SimplifyOptions::facing_repair`] off (its diagonal swaps are not vertex
+    /// splits, so the build leaves them out).
     ///
     /// # Errors
     /// [`PmError::NotHalfEdge`] for other methods or placements,
@@ -151,6 +153,9 @@ impl ProgressiveMesh {
             ));
         }
         let mut rec = Recorder::default();
+        // The orientation repair's diagonal swaps are not vertex splits: the base
+        // mesh is the collapses' result as it stands.
+        let options = &options.clone().with_facing_repair(false);
         let s = simplify_observed(mesh, options, &mut rec)?;
         if rec.moved_kept {
             return Err(PmError::NotHalfEdge("a collapse moved the kept vertex"));

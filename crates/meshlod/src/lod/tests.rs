@@ -60,12 +60,14 @@ fn melax_full() -> SimplifyOptions {
     SimplifyOptions::default()
         .with_method(Method::Melax)
         .with_target_triangles(0)
+        .with_facing_repair(false)
 }
 
 fn qem_full() -> SimplifyOptions {
     SimplifyOptions::default()
         .with_placement(Placement::Endpoint)
         .with_target_triangles(0)
+        .with_facing_repair(false)
 }
 
 fn assert_valid(m: &Mesh) {

@@ -442,6 +442,42 @@ impl Bvh {
         }
     }
 
+    /// Calls `f(triangle, corners)` for every triangle whose bounding box overlaps the
+    /// box `[lo, hi]` (mesh units), in leaf order. O(log n + k) for k triangles found on
+    /// a well-balanced tree.
+    pub fn for_each_in_box(&self, lo: V3, hi: V3, mut f: impl FnMut(u32, &[[f32; 3]; 3])) {
+        if self.tris.is_empty() {
+            return;
+        }
+        let overlaps =
+            |n: &Node| (0..3).all(|k| f64::from(n.lo[k]) <= hi[k] && f64::from(n.hi[k]) >= lo[k]);
+        let mut stack = vec![0usize];
+        while let Some(i) = stack.pop() {
+            let nd = &self.nodes[i];
+            if !overlaps(nd) {
+                continue;
+            }
+            if nd.count > 0 {
+                let s = nd.first as usize;
+                for slot in s..s + nd.count as usize {
+                    let t = &self.tris[slot];
+                    let inside = (0..3).all(|k| {
+                        let a = f64::from(t[0][k].min(t[1][k]).min(t[2][k]));
+                        let b = f64::from(t[0][k].max(t[1][k]).max(t[2][k]));
+                        a <= hi[k] && b >= lo[k]
+                    });
+                    if inside {
+                        f(self.ids[slot], t);
+                    }
+                }
+            } else {
+                let l = nd.first as usize;
+                stack.push(l + 1);
+                stack.push(l);
+            }
+        }
+    }
+
     #[inline]
     fn test_slot(&self, p: V3, slot: usize, best: &mut Closest) {
         let t = &self.tris[slot];
@@ -497,6 +533,44 @@ mod tests {
             .wrapping_mul(6364136223846793005)
             .wrapping_add(1442695040888963407);
         ((*seed >> 40) as f32) / (1u64 << 24) as f32
+    }
+
+    /// The box query finds exactly the triangles whose boxes overlap the query box
+    /// (brute force over a seeded soup), each once.
+    #[test]
+    fn box_query_equals_brute_force() {
+        let mut s = 12345u64;
+        let mut positions = Vec::new();
+        let mut triangles = Vec::new();
+        for t in 0..2000u32 {
+            let c = [lcg(&mut s) * 10.0, lcg(&mut s) * 10.0, lcg(&mut s) * 10.0];
+            for _ in 0..3 {
+                positions.push([c[0] + lcg(&mut s), c[1] + lcg(&mut s), c[2] + lcg(&mut s)]);
+            }
+            triangles.push([3 * t, 3 * t + 1, 3 * t + 2]);
+        }
+        for bvh in [
+            Bvh::build(&positions, &triangles),
+            Bvh::build_morton(&positions, &triangles),
+        ] {
+            for _ in 0..50 {
+                let lo = [0; 3].map(|_| f64::from(lcg(&mut s)) * 10.0);
+                let hi = lo.map(|v| v + f64::from(lcg(&mut s)) * 3.0);
+                let mut got = Vec::new();
+                bvh.for_each_in_box(lo, hi, |t, _| got.push(t));
+                got.sort_unstable();
+                let want: Vec<u32> = (0..triangles.len() as u32)
+                    .filter(|&t| {
+                        (0..3).all(|k| {
+                            let v =
+                                triangles[t as usize].map(|i| f64::from(positions[i as usize][k]));
+                            v[0].min(v[1]).min(v[2]) <= hi[k] && v[0].max(v[1]).max(v[2]) >= lo[k]
+                        })
+                    })
+                    .collect();
+                assert_eq!(got, want);
+            }
+        }
     }
 
     /// Seeded random triangle soups: the BVH answer equals brute force over all

@@ -354,14 +354,15 @@ fn try_swap(
                 continue;
             }
             let before = dist_to_tri(q, &old[0]).min(dist_to_tri(q, &old[1]));
+            let after = dist_to_tri(q, &new[0]).min(dist_to_tri(q, &new[1]));
+            if after <= before.max(reach) {
+                continue;
+            }
+            // Farther than allowed: a violation only if the old pair was its nearest.
             let nearest = out_bvh
                 .closest(q, Some(t as u32))
                 .map_or(f64::INFINITY, |c| c.dist2.sqrt());
-            if before > nearest * (1.0 + 1e-9) + 1e-12 * reach {
-                continue; // another output triangle is nearer: not ours to worsen
-            }
-            let after = dist_to_tri(q, &new[0]).min(dist_to_tri(q, &new[1]));
-            if after > before.max(reach) {
+            if before <= nearest * (1.0 + 1e-9) + 1e-12 * reach {
                 ok = false;
                 return;
             }

@@ -25,6 +25,16 @@ struct Node {
     count: u32,
 }
 
+impl Node {
+    /// A blank root, before its range is split or made a leaf.
+    const ROOT: Node = Node {
+        lo: [0.0; 3],
+        first: 0,
+        hi: [0.0; 3],
+        count: 0,
+    };
+}
+
 /// The result of a closest-point query.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Closest {
@@ -97,10 +107,7 @@ impl Bvh {
     #[must_use]
     pub fn build(positions: &[[f32; 3]], triangles: &[[u32; 3]]) -> Self {
         let n = triangles.len();
-        let corners: Vec<[[f32; 3]; 3]> = triangles
-            .iter()
-            .map(|t| t.map(|i| positions[i as usize]))
-            .collect();
+        let corners = corners_of(positions, triangles);
         let centroid = |c: &[[f32; 3]; 3]| -> [f32; 3] {
             std::array::from_fn(|k| (c[0][k] + c[1][k] + c[2][k]) * (1.0 / 3.0))
         };
@@ -120,12 +127,7 @@ impl Bvh {
             })
             .collect();
         let mut nodes: Vec<Node> = Vec::with_capacity(2 * n / LEAF_SIZE + 1);
-        nodes.push(Node {
-            lo: [0.0; 3],
-            first: 0,
-            hi: [0.0; 3],
-            count: 0,
-        });
+        nodes.push(Node::ROOT);
         // (node index, start, end) ranges still to split.
         let mut work = vec![(0usize, 0usize, n)];
         while let Some((ni, start, end)) = work.pop() {
@@ -152,27 +154,26 @@ impl Bvh {
                     // No useful SAH split (e.g. identical centroids) on a big range:
                     // split in the middle so leaves stay small.
                     let mid = start + found.unwrap_or(count / 2);
-                    let left = nodes.len();
-                    nodes.push(nodes[ni]);
-                    nodes.push(nodes[ni]);
-                    nodes[ni].first = left as u32;
-                    nodes[ni].count = 0;
-                    work.push((left + 1, mid, end));
-                    work.push((left, start, mid));
+                    split_node(&mut nodes, &mut work, ni, start, mid, end);
                 }
             }
         }
         let order: Vec<u32> = prims.iter().map(|p| p.id).collect();
         drop(prims);
         let tris: Vec<[[f32; 3]; 3]> = order.iter().map(|&t| corners[t as usize]).collect();
-        let mut slot_of = vec![0u32; n];
-        for (slot, &t) in order.iter().enumerate() {
+        Self::assemble(nodes, tris, order)
+    }
+
+    /// The tree from its nodes, its triangles in leaf order and their mesh ids.
+    fn assemble(nodes: Vec<Node>, tris: Vec<[[f32; 3]; 3]>, ids: Vec<u32>) -> Self {
+        let mut slot_of = vec![0u32; ids.len()];
+        for (slot, &t) in ids.iter().enumerate() {
             slot_of[t as usize] = slot as u32;
         }
         Self {
             nodes,
             tris,
-            ids: order,
+            ids,
             slot_of,
         }
     }
@@ -189,10 +190,7 @@ impl Bvh {
     #[must_use]
     pub fn build_morton(positions: &[[f32; 3]], triangles: &[[u32; 3]]) -> Self {
         let n = triangles.len();
-        let corners: Vec<[[f32; 3]; 3]> = triangles
-            .iter()
-            .map(|t| t.map(|i| positions[i as usize]))
-            .collect();
+        let corners = corners_of(positions, triangles);
         // Centroids (times 3) and their bounds.
         let sums: Vec<[f32; 3]> = corners
             .iter()
@@ -224,12 +222,7 @@ impl Bvh {
         keys.sort_unstable();
         let code = |i: usize| (keys[i] >> 32) as u32;
         let mut nodes: Vec<Node> = Vec::with_capacity(2 * n / LEAF_SIZE + 1);
-        nodes.push(Node {
-            lo: [0.0; 3],
-            first: 0,
-            hi: [0.0; 3],
-            count: 0,
-        });
+        nodes.push(Node::ROOT);
         let mut work = vec![(0usize, 0usize, n)];
         while let Some((ni, start, end)) = work.pop() {
             let count = end - start;
@@ -255,13 +248,7 @@ impl Bvh {
                 }
                 lo
             };
-            let left = nodes.len();
-            nodes.push(nodes[ni]);
-            nodes.push(nodes[ni]);
-            nodes[ni].first = left as u32;
-            nodes[ni].count = 0;
-            work.push((left + 1, mid, end));
-            work.push((left, start, mid));
+            split_node(&mut nodes, &mut work, ni, start, mid, end);
         }
         let order: Vec<u32> = keys.iter().map(|&k| k as u32).collect();
         drop(keys);
@@ -284,16 +271,7 @@ impl Bvh {
             nodes[ni].lo = b.lo;
             nodes[ni].hi = b.hi;
         }
-        let mut slot_of = vec![0u32; n];
-        for (slot, &t) in order.iter().enumerate() {
-            slot_of[t as usize] = slot as u32;
-        }
-        Self {
-            nodes,
-            tris,
-            ids: order,
-            slot_of,
-        }
+        Self::assemble(nodes, tris, order)
     }
 
     /// Partitions `prims` by the best SAH bin boundary; returns the left count, or
@@ -492,6 +470,33 @@ impl Bvh {
             };
         }
     }
+}
+
+/// The three corners of every triangle.
+fn corners_of(positions: &[[f32; 3]], triangles: &[[u32; 3]]) -> Vec<[[f32; 3]; 3]> {
+    triangles
+        .iter()
+        .map(|t| t.map(|i| positions[i as usize]))
+        .collect()
+}
+
+/// Turns node `ni` (range `start..end`) into an inner node whose two children, side
+/// by side at the end of `nodes`, get `start..mid` and `mid..end`, queued in `work`.
+fn split_node(
+    nodes: &mut Vec<Node>,
+    work: &mut Vec<(usize, usize, usize)>,
+    ni: usize,
+    start: usize,
+    mid: usize,
+    end: usize,
+) {
+    let left = nodes.len();
+    nodes.push(nodes[ni]);
+    nodes.push(nodes[ni]);
+    nodes[ni].first = left as u32;
+    nodes[ni].count = 0;
+    work.push((left + 1, mid, end));
+    work.push((left, start, mid));
 }
 
 /// Interleaves the low 10 bits of `x`, `y` and `z` (`x` lowest).

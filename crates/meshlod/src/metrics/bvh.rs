@@ -421,11 +421,17 @@ impl Bvh {
     }
 
     /// Calls `f(triangle, corners)` for every triangle whose bounding box overlaps the
-    /// box `[lo, hi]` (mesh units), in leaf order. O(log n + k) for k triangles found on
-    /// a well-balanced tree.
-    pub fn for_each_in_box(&self, lo: V3, hi: V3, mut f: impl FnMut(u32, &[[f32; 3]; 3])) {
+    /// box `[lo, hi]` (mesh units), in leaf order, until `f` returns `false`. Returns
+    /// `false` when `f` stopped the walk. O(log n + k) for k triangles found on a
+    /// well-balanced tree.
+    pub fn for_each_in_box(
+        &self,
+        lo: V3,
+        hi: V3,
+        mut f: impl FnMut(u32, &[[f32; 3]; 3]) -> bool,
+    ) -> bool {
         if self.tris.is_empty() {
-            return;
+            return true;
         }
         let overlaps =
             |n: &Node| (0..3).all(|k| f64::from(n.lo[k]) <= hi[k] && f64::from(n.hi[k]) >= lo[k]);
@@ -444,8 +450,8 @@ impl Bvh {
                         let b = f64::from(t[0][k].max(t[1][k]).max(t[2][k]));
                         a <= hi[k] && b >= lo[k]
                     });
-                    if inside {
-                        f(self.ids[slot], t);
+                    if inside && !f(self.ids[slot], t) {
+                        return false;
                     }
                 }
             } else {
@@ -454,6 +460,7 @@ impl Bvh {
                 stack.push(l);
             }
         }
+        true
     }
 
     #[inline]
@@ -562,7 +569,17 @@ mod tests {
                 let lo = [0; 3].map(|_| f64::from(lcg(&mut s)) * 10.0);
                 let hi = lo.map(|v| v + f64::from(lcg(&mut s)) * 3.0);
                 let mut got = Vec::new();
-                bvh.for_each_in_box(lo, hi, |t, _| got.push(t));
+                assert!(bvh.for_each_in_box(lo, hi, |t, _| {
+                    got.push(t);
+                    true
+                }));
+                // Stopping at the first triangle visits exactly one.
+                let mut seen = 0;
+                let full = bvh.for_each_in_box(lo, hi, |_, _| {
+                    seen += 1;
+                    false
+                });
+                assert_eq!((full, seen), (got.is_empty(), usize::from(!got.is_empty())));
                 got.sort_unstable();
                 let want: Vec<u32> = (0..triangles.len() as u32)
                     .filter(|&t| {

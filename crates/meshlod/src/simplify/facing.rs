@@ -329,11 +329,7 @@ fn try_swap(
         }
     }
     let inside = |q: V3| (0..3).all(|i| q[i] >= lo[i] && q[i] <= hi[i]);
-    let mut ok = true;
-    r.bvh.for_each_in_box(lo, hi, |_, tri| {
-        if !ok {
-            return;
-        }
+    let ok = r.bvh.for_each_in_box(lo, hi, |_, tri| {
         let v = tri.map(f64v);
         let mid = |i: usize, j: usize| {
             lerp3(
@@ -364,10 +360,10 @@ fn try_swap(
                 .closest(q, Some(t as u32))
                 .map_or(f64::INFINITY, |c| c.dist2.sqrt());
             if before <= nearest * (1.0 + 1e-9) + 1e-12 * reach {
-                ok = false;
-                return;
+                return false;
             }
         }
+        true
     });
     if !ok {
         return None;

@@ -196,17 +196,20 @@ pub(crate) fn repair(
         if !r.facing(&corners_of(out, t), &mut start(out, t)).0 {
             continue;
         }
-        let mut best: Option<(usize, usize, [u32; 3], [u32; 3])> = None;
+        let mut best: Option<(usize, usize, usize, [u32; 3], [u32; 3])> = None;
         for k in 0..3 {
-            let Some((s, nt, ns, away_new)) = try_swap(&r, out, &point, &fans, &out_bvh, g, t, k)
+            let Some((s, nt, ns, away_old, away_new)) =
+                try_swap(&r, out, &point, &fans, &out_bvh, g, t, k)
             else {
                 continue;
             };
             if best.as_ref().is_none_or(|b| away_new < b.0) {
-                best = Some((away_new, s, nt, ns));
+                best = Some((away_new, away_old, s, nt, ns));
             }
         }
-        if let Some((_, s, nt, ns)) = best {
+        if let Some((away_new, away_old, s, nt, ns)) = best {
+            // Only t and s changed: the count follows without a second scan.
+            stats.after = stats.after.saturating_sub(away_old - away_new);
             // Fans: the points of the old edge lose one triangle each, the points of
             // the new diagonal gain one each.
             let old_t = out.triangles[t].map(|v| point[v as usize]);
@@ -230,15 +233,12 @@ pub(crate) fn repair(
             stats.flips += 1;
         }
     }
-    stats.after = (0..out.triangles.len())
-        .filter(|&t| r.facing(&corners_of(out, t), &mut start(out, t)).0)
-        .count();
     stats
 }
 
 /// Tries swapping edge `k` of triangle `t` (from corner `k` to corner `k + 1`):
-/// `Some((s, new t, new s, facing away among the new two))` when every condition of
-/// the module docs holds.
+/// `Some((s, new t, new s, facing away among the old two, among the new two))` when
+/// every condition of the module docs holds.
 #[allow(clippy::too_many_arguments)]
 fn try_swap(
     r: &Repair,
@@ -249,7 +249,7 @@ fn try_swap(
     g: f64,
     t: usize,
     k: usize,
-) -> Option<(usize, [u32; 3], [u32; 3], usize)> {
+) -> Option<(usize, [u32; 3], [u32; 3], usize, usize)> {
     let tri = out.triangles[t];
     let (a, b, c) = (tri[k], tri[(k + 1) % 3], tri[(k + 2) % 3]);
     let p = |v: u32| point[v as usize];
@@ -368,7 +368,7 @@ fn try_swap(
     if !ok {
         return None;
     }
-    Some((s, [c, a, d], [d, b, c], away_new))
+    Some((s, [c, a, d], [d, b, c], away_old, away_new))
 }
 
 #[cfg(test)]

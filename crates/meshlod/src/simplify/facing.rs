@@ -196,18 +196,23 @@ pub(crate) fn repair(
         if !r.facing(&corners_of(out, t), &mut start(out, t)).0 {
             continue;
         }
-        let mut best: Option<(usize, usize, usize, [u32; 3], [u32; 3])> = None;
+        let mut best: Option<Swap> = None;
         for k in 0..3 {
-            let Some((s, nt, ns, away_old, away_new)) =
-                try_swap(&r, out, &point, &fans, &out_bvh, g, t, k)
-            else {
+            let Some(sw) = try_swap(&r, out, &point, &fans, &out_bvh, g, t, k) else {
                 continue;
             };
-            if best.as_ref().is_none_or(|b| away_new < b.0) {
-                best = Some((away_new, away_old, s, nt, ns));
+            if best.as_ref().is_none_or(|b| sw.away_new < b.away_new) {
+                best = Some(sw);
             }
         }
-        if let Some((away_new, away_old, s, nt, ns)) = best {
+        if let Some(Swap {
+            other: s,
+            new_t: nt,
+            new_other: ns,
+            away_old,
+            away_new,
+        }) = best
+        {
             // Only t and s changed: the count follows without a second scan.
             stats.after = stats.after.saturating_sub(away_old - away_new);
             // Fans: the points of the old edge lose one triangle each, the points of
@@ -236,9 +241,20 @@ pub(crate) fn repair(
     stats
 }
 
+/// A diagonal swap found legal by [`try_swap`].
+struct Swap {
+    /// The triangle across the swapped edge.
+    other: usize,
+    /// The two triangles after the swap (output vertex indices).
+    new_t: [u32; 3],
+    new_other: [u32; 3],
+    /// Triangles facing away among the pair before and after.
+    away_old: usize,
+    away_new: usize,
+}
+
 /// Tries swapping edge `k` of triangle `t` (from corner `k` to corner `k + 1`):
-/// `Some((s, new t, new s, facing away among the old two, among the new two))` when
-/// every condition of the module docs holds.
+/// the swap when every condition of the module docs holds.
 #[allow(clippy::too_many_arguments)]
 fn try_swap(
     r: &Repair,
@@ -249,7 +265,7 @@ fn try_swap(
     g: f64,
     t: usize,
     k: usize,
-) -> Option<(usize, [u32; 3], [u32; 3], usize, usize)> {
+) -> Option<Swap> {
     let tri = out.triangles[t];
     let (a, b, c) = (tri[k], tri[(k + 1) % 3], tri[(k + 2) % 3]);
     let p = |v: u32| point[v as usize];
@@ -368,7 +384,13 @@ fn try_swap(
     if !ok {
         return None;
     }
-    Some((s, [c, a, d], [d, b, c], away_old, away_new))
+    Some(Swap {
+        other: s,
+        new_t: [c, a, d],
+        new_other: [d, b, c],
+        away_old,
+        away_new,
+    })
 }
 
 #[cfg(test)]

@@ -41,7 +41,7 @@
 //! most: many thin parts, one closest-point query per sample).
 
 use crate::filter::triangle_quality;
-use crate::mesh::Mesh;
+use crate::mesh::{Mesh, Weld};
 use crate::metrics::bvh::Bvh;
 use crate::metrics::triangle::{closest_point, cross, dist2, dot, sub, V3};
 
@@ -171,19 +171,9 @@ pub(crate) fn repair(
 
     // Points: output vertices at the same position are one point (attribute seams
     // split vertices, not points).
-    let nv = out.positions.len();
-    let mut order: Vec<u32> = (0..nv as u32).collect();
-    let key = |v: u32| out.positions[v as usize].map(f32::to_bits);
-    order.sort_unstable_by_key(|&v| (key(v), v));
-    let mut point = vec![0u32; nv];
-    let mut np = 0u32;
-    for (i, &v) in order.iter().enumerate() {
-        if i > 0 && key(order[i - 1]) != key(v) {
-            np += 1;
-        }
-        point[v as usize] = np;
-    }
-    let mut fans: Vec<Vec<u32>> = vec![Vec::new(); np as usize + 1];
+    let weld = Weld::exact(&out.positions);
+    let point = weld.point_of;
+    let mut fans: Vec<Vec<u32>> = vec![Vec::new(); weld.representative.len()];
     for (t, tri) in out.triangles.iter().enumerate() {
         for &v in tri {
             fans[point[v as usize] as usize].push(t as u32);

@@ -146,6 +146,174 @@ pub(crate) fn prepare_block(
     }
 }
 
+/// A block of up to [`BLOCK`] triangles for the quadric representative in
+/// structure-of-arrays layout (one array per coordinate and per quadric entry), so
+/// that the planes are computed in loops that vectorise; the sums then added to
+/// the cells are those of [`Prepared::new`] and [`add_triangle`] (with corner weights
+/// `max(area, MIN_WEIGHT)`), bit for bit.
+pub(crate) struct QuadricBlock {
+    /// Corner `k`, axis `a`, triangle `i`: `p[k][a][i]`, relative to the origin.
+    p: [[[f64; BLOCK]; 3]; 3],
+    /// The cell of corner `k` of triangle `i`: `cell[k][i]`.
+    cell: [[u32; BLOCK]; 3],
+    /// The ten quadric entries ([`Prepared::q`]).
+    q: [[f64; BLOCK]; 10],
+    area: [f64; BLOCK],
+    /// The corner weight `max(area, MIN_WEIGHT)`.
+    w: [f64; BLOCK],
+    /// `w (p₀ + p₁ + p₂)` per axis and `3w`: the corner sums of a triangle inside one
+    /// cell ([`Acc::add_corners`]).
+    psum: [[f64; BLOCK]; 3],
+    w3: [f64; BLOCK],
+    n: usize,
+}
+
+impl QuadricBlock {
+    /// An empty block, on the heap (about 12 KB).
+    pub fn boxed() -> Box<Self> {
+        Box::new(Self {
+            p: [[[0.0; BLOCK]; 3]; 3],
+            cell: [[0; BLOCK]; 3],
+            q: [[0.0; BLOCK]; 10],
+            area: [0.0; BLOCK],
+            w: [0.0; BLOCK],
+            psum: [[0.0; BLOCK]; 3],
+            w3: [0.0; BLOCK],
+            n: 0,
+        })
+    }
+
+    /// Loads `n ≤ BLOCK` triangles, `tri(i) = (corners, cells)`, and computes their
+    /// planes for a grid at `origin`.
+    #[inline]
+    pub fn load(
+        &mut self,
+        n: usize,
+        tri: impl Fn(usize) -> ([[f32; 3]; 3], [u32; 3]),
+        origin: [f64; 3],
+    ) {
+        let n = n.min(BLOCK);
+        self.n = n;
+        for i in 0..n {
+            let (corners, cells) = tri(i);
+            for k in 0..3 {
+                for a in 0..3 {
+                    self.p[k][a][i] = f64::from(corners[k][a]) - origin[a];
+                }
+                self.cell[k][i] = cells[k];
+            }
+        }
+        let [p0, p1, p2] = &self.p;
+        for i in 0..n {
+            // As `cross` and `Prepared::from_parts`, operation for operation.
+            let e1 = [
+                p1[0][i] - p0[0][i],
+                p1[1][i] - p0[1][i],
+                p1[2][i] - p0[2][i],
+            ];
+            let e2 = [
+                p2[0][i] - p0[0][i],
+                p2[1][i] - p0[1][i],
+                p2[2][i] - p0[2][i],
+            ];
+            let c = [
+                e1[1] * e2[2] - e1[2] * e2[1],
+                e1[2] * e2[0] - e1[0] * e2[2],
+                e1[0] * e2[1] - e1[1] * e2[0],
+            ];
+            let len = (c[0] * c[0] + c[1] * c[1] + c[2] * c[2]).sqrt();
+            let inv = 1.0 / len;
+            let ok = len > 0.0 && len.is_finite();
+            let s = 0.5 * inv;
+            let e = -(c[0] * p0[0][i] + c[1] * p0[1][i] + c[2] * p0[2][i]);
+            let sc = [s * c[0], s * c[1], s * c[2]];
+            let q = [
+                sc[0] * c[0],
+                sc[0] * c[1],
+                sc[0] * c[2],
+                sc[0] * e,
+                sc[1] * c[1],
+                sc[1] * c[2],
+                sc[1] * e,
+                sc[2] * c[2],
+                sc[2] * e,
+                s * e * e,
+            ];
+            for j in 0..10 {
+                self.q[j][i] = if ok { q[j] } else { 0.0 };
+            }
+            let area = if ok { 0.5 * len } else { 0.0 };
+            self.area[i] = area;
+            let w = area.max(MIN_WEIGHT);
+            self.w[i] = w;
+            for a in 0..3 {
+                self.psum[a][i] = w * (p0[a][i] + p1[a][i] + p2[a][i]);
+            }
+            self.w3[i] = 3.0 * w;
+        }
+    }
+
+    /// Adds the loaded triangles, in order, to the cells among `start .. start +
+    /// accs.len()` (as [`add_triangle::<true>`]). A run of triangles inside one cell
+    /// is summed in a copy of the cell's sums held in registers and stored once:
+    /// the same additions in the same order, without a store and reload between
+    /// consecutive triangles.
+    #[inline]
+    pub fn add_to(&self, accs: &mut [Acc], start: u32) {
+        // The cell (index into `accs`) whose sums `cur` holds, if any.
+        let mut held: Option<usize> = None;
+        let mut cur = Acc::default();
+        for i in 0..self.n {
+            let c = [self.cell[0][i], self.cell[1][i], self.cell[2][i]];
+            if c[0] == c[1] && c[1] == c[2] {
+                let slot = c[0].wrapping_sub(start) as usize;
+                if slot >= accs.len() {
+                    continue;
+                }
+                if held != Some(slot) {
+                    if let Some(h) = held {
+                        accs[h] = cur;
+                    }
+                    cur = accs[slot];
+                    held = Some(slot);
+                }
+                self.add_plane(&mut cur, i);
+                for j in 0..3 {
+                    cur.wsum[j] += self.psum[j][i];
+                }
+                cur.w += self.w3[i];
+                continue;
+            }
+            if let Some(h) = held.take() {
+                accs[h] = cur;
+            }
+            let w = self.w[i];
+            for k in 0..3 {
+                if let Some(a) = accs.get_mut(c[k].wrapping_sub(start) as usize) {
+                    if !((k >= 1 && c[k] == c[0]) || (k == 2 && c[2] == c[1])) {
+                        self.add_plane(a, i);
+                    }
+                    for j in 0..3 {
+                        a.wsum[j] += w * self.p[k][j][i];
+                    }
+                    a.w += w;
+                }
+            }
+        }
+        if let Some(h) = held {
+            accs[h] = cur;
+        }
+    }
+
+    #[inline(always)]
+    fn add_plane(&self, a: &mut Acc, i: usize) {
+        for j in 0..10 {
+            a.q[j] += self.q[j][i];
+        }
+        a.qw += self.area[i];
+    }
+}
+
 /// The sums of one cell (120 bytes).
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
 pub(crate) struct Acc {
@@ -260,6 +428,65 @@ fn blocks_prepare_bit_for_bit() {
             (b.p, b.area.to_bits(), b.q.map(f64::to_bits)),
             "triangle {i}"
         );
+    }
+}
+
+/// The structure-of-arrays block adds exactly what [`add_triangle`] adds, for
+/// triangles in one, two and three cells, degenerate ones, and a range of cells
+/// that leaves some corners out.
+#[cfg(test)]
+#[test]
+fn quadric_block_matches_add_triangle() {
+    let tris: Vec<[[f32; 3]; 3]> = (0..150)
+        .map(|i| {
+            let f = i as f32;
+            [
+                [f.sin(), f.cos(), 0.3 * f],
+                [f.cos() * 2.0, 1.0 + f, f.sin()],
+                if i % 10 == 0 {
+                    [f.sin(), f.cos(), 0.3 * f]
+                } else {
+                    [0.5, -f, 2.0]
+                },
+            ]
+        })
+        .collect();
+    let cells = |i: usize| -> [u32; 3] {
+        if i % 16 < 6 {
+            // Runs of triangles inside one cell.
+            return [(i / 16 % 3) as u32 + 2; 3];
+        }
+        match i % 4 {
+            0 => [3; 3],
+            1 => [1, 1, 4],
+            2 => [2, 0, 2],
+            _ => [(i % 5) as u32, 5, 6],
+        }
+    };
+    let origin = [-1.0, -2.0, 0.5];
+    for start in [0u32, 2] {
+        let mut a = vec![Acc::default(); 7 - start as usize - 1];
+        let mut b = a.clone();
+        for i in 0..tris.len() {
+            let t = Prepared::new(&tris[i], origin);
+            add_triangle::<true>(&mut a, start, cells(i), &t, [t.area.max(MIN_WEIGHT); 3]);
+        }
+        let mut block = QuadricBlock::boxed();
+        for first in (0..tris.len()).step_by(BLOCK) {
+            let n = (tris.len() - first).min(BLOCK);
+            block.load(n, |i| (tris[first + i], cells(first + i)), origin);
+            block.add_to(&mut b, start);
+        }
+        let bits = |x: &Acc| {
+            let mut v: Vec<u64> = x.q.iter().map(|q| q.to_bits()).collect();
+            v.extend(x.wsum.iter().map(|q| q.to_bits()));
+            v.extend([x.qw.to_bits(), x.w.to_bits()]);
+            v
+        };
+        for (x, y) in a.iter().zip(&b) {
+            assert!(x.w > 0.0);
+            assert_eq!(bits(x), bits(y));
+        }
     }
 }
 

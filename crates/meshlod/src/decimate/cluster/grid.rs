@@ -88,6 +88,40 @@ impl Grid {
         (i * u64::from(self.dims[1]) + j) * u64::from(self.dims[2]) + k
     }
 
+    /// [`Self::linear`] as a `u32`, for grids of at most 2³² cells (larger grids give
+    /// the index modulo 2³²). Written so that a loop over points vectorises: the
+    /// clamped coordinates (below 2²¹) are floored by adding 2⁵², the index is
+    /// formed in wrapping `u32` arithmetic.
+    #[inline(always)]
+    #[must_use]
+    pub fn linear_u32(&self, p: [f32; 3]) -> u32 {
+        // 2⁵²: adding it to x in [0, 2²¹] leaves round(x) in the low mantissa bits.
+        const MAGIC: f64 = 4_503_599_627_370_496.0;
+        let axis = |k: usize| {
+            let x = (f64::from(p[k]) - self.origin[k]) * self.inv;
+            // Comparisons (not `max`/`min`, which must propagate a NaN operand
+            // specially); a NaN becomes 0 at the first.
+            let x = if x > 0.0 { x } else { 0.0 };
+            let x = if x < self.last[k] { x } else { self.last[k] };
+            // floor(x) without a saturating float-to-int conversion: the rounded
+            // value, less one where rounding went up.
+            let t = x + MAGIC;
+            (t.to_bits() as u32).wrapping_sub(u32::from(t - MAGIC > x))
+        };
+        let (i, j, k) = (axis(0), axis(1), axis(2));
+        i.wrapping_mul(self.dims[1])
+            .wrapping_add(j)
+            .wrapping_mul(self.dims[2])
+            .wrapping_add(k)
+    }
+
+    /// [`Self::linear_u32`] of every point of `points` into `out` (same length).
+    pub fn linear_u32_all(&self, points: &[[f32; 3]], out: &mut [u32]) {
+        for (o, &p) in out.iter_mut().zip(points) {
+            *o = self.linear_u32(p);
+        }
+    }
+
     /// The cell coordinates of a [`Self::linear`] index.
     #[must_use]
     pub fn unlinear(&self, l: u64) -> [u32; 3] {
@@ -453,6 +487,27 @@ mod tests {
         assert_eq!(point.cell, 1.0);
     }
 
+    /// The vectorisable [`Grid::linear_u32`] floors exactly as [`Grid::linear`]:
+    /// points on cell faces, just below them, halfway, outside the box, NaN.
+    #[test]
+    fn linear_u32_matches_linear() {
+        let g = Grid::new([-1.0, 0.0, 2.0], [3.0, 1.5, 9.0], 0.25);
+        let mut checked = 0;
+        for n in -40..80 {
+            let f = n as f32 * 0.125;
+            for d in [0.0, -1e-6, 1e-6, 0.0625] {
+                let x = f + d;
+                for p in [[x, 0.3, 4.0], [0.1, x, 8.9], [2.9, 1.4, x + 2.0], [x; 3]] {
+                    assert_eq!(u64::from(g.linear_u32(p)), g.linear(p), "{p:?}");
+                    checked += 1;
+                }
+            }
+        }
+        let nan = [f32::NAN, 1.0, f32::INFINITY];
+        assert_eq!(u64::from(g.linear_u32(nan)), g.linear(nan));
+        assert_eq!(checked, 120 * 16);
+    }
+
     #[test]
     fn tables_insert_and_find() {
         let mut t = CellTable::with_capacity(1);
@@ -510,6 +565,7 @@ mod tests {
             let p = [(f * 0.37) % 3.0, (f * 0.71) % 5.0, (f * 0.13) % 2.0];
             let l = g.linear(p);
             assert!(l < g.cell_count());
+            assert_eq!(u64::from(g.linear_u32(p)), l);
             assert_eq!(pack(g.unlinear(l)), g.key(p));
             assert_eq!(flat2.id_linear(l, &g), flat.id(g.key(p)));
             assert_eq!(hashed2.id_linear(l, &g), flat.id(g.key(p)));

@@ -124,8 +124,7 @@ use crate::io::IoError;
 use crate::mesh::{Mesh, Weld};
 use crate::simplify::Distance;
 use accumulate::{
-    add_triangle, prepare_block, representative, Acc, Block, Prepared, QuadricBlock, BLOCK,
-    MIN_WEIGHT,
+    add_triangle, prepare_block, representative, Acc, Block, Prepared, BLOCK, MIN_WEIGHT,
 };
 use grid::KeyTriples;
 pub use grid::{CellTable, Grid, TripleSet, MAX_CELLS_PER_AXIS};
@@ -1412,13 +1411,6 @@ impl Accumulation<'_> {
         let mut which = [0u32; BLOCK];
         let mut cells_of = [[0u32; 3]; BLOCK];
         let mut planes = Block::new();
-        // The quadric representative (the default): planes in structure-of-arrays
-        // blocks (corner weights are the areas).
-        let mut soa = if QUADRIC {
-            Some(QuadricBlock::boxed())
-        } else {
-            None
-        };
         let n = mesh.triangles.len();
         for (b, first) in (0..n).step_by(BLOCK).enumerate() {
             if let Some(spans) = self.spans {
@@ -1428,28 +1420,6 @@ impl Accumulation<'_> {
                 }
             }
             let last = (first + BLOCK).min(n);
-            if let (Some(block), None) = (soa.as_deref_mut(), self.spans) {
-                // One worker owning every cell (sequential): no selection.
-                let tris = &mesh.triangles[first..last];
-                if let Some(u) = used.as_deref_mut() {
-                    for &v in tris.as_flattened() {
-                        u[v as usize] = true;
-                    }
-                }
-                block.load(
-                    tris.len(),
-                    |i| {
-                        let tri = &tris[i];
-                        (
-                            tri.map(|v| mesh.positions[v as usize]),
-                            tri.map(|v| vcell[v as usize]),
-                        )
-                    },
-                    self.origin,
-                );
-                block.add_to(part, start);
-                continue;
-            }
             let mut m = 0;
             for t in first..last {
                 let tri = &mesh.triangles[t];
@@ -1462,18 +1432,6 @@ impl Accumulation<'_> {
                 which[m] = t as u32;
                 cells_of[m] = c;
                 m += usize::from(owned(c[0]) | owned(c[1]) | owned(c[2]));
-            }
-            if let Some(block) = soa.as_deref_mut() {
-                block.load(
-                    m,
-                    |i| {
-                        let tri = &mesh.triangles[which[i] as usize];
-                        (tri.map(|v| mesh.positions[v as usize]), cells_of[i])
-                    },
-                    self.origin,
-                );
-                block.add_to(part, start);
-                continue;
             }
             prepare_block(
                 m,

@@ -455,12 +455,36 @@ impl Search {
 
     /// The next ε to probe for `goal`: a secant step on `log count` against `log ε`
     /// inside the bracket, or, with one side only, a step assuming count ∝ ε⁻².
+    ///
+    /// On coarse grids the count jumps where a cell count along an axis changes
+    /// (the grid starts at the box's minimum corner, so a whole row of cells
+    /// appears). When the two sides of the bracket differ in cell counts, the
+    /// smallest ε with the coarse side's cell counts is probed first: it gives that
+    /// side its most triangles, the candidate closest to the goal from below.
     fn next(&self, goal: usize) -> Option<f64> {
         let g = goal as f64;
         match self.bracket(goal) {
             (Some((es, cs)), Some((el, cl))) => {
                 if el / es < 1.0 + 1e-4 {
                     return None;
+                }
+                let coarse = Grid::new(self.lo, self.hi, el).dims;
+                if Grid::new(self.lo, self.hi, es).dims != coarse {
+                    let edge = (0..3)
+                        .map(|k| (self.hi[k] - self.lo[k]) / f64::from(coarse[k]))
+                        .fold(0.0f64, f64::max)
+                        * (1.0 + 1e-9);
+                    let probed = self
+                        .probes
+                        .iter()
+                        .any(|p| p.0 <= edge * (1.0 + 1e-6) && p.0 >= edge);
+                    if edge > es
+                        && edge < el
+                        && !probed
+                        && Grid::new(self.lo, self.hi, edge).dims == coarse
+                    {
+                        return Some(edge);
+                    }
                 }
                 let (ls, ll) = (es.ln(), el.ln());
                 let t = if cl > 0 && cs > cl {

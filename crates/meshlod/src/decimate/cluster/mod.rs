@@ -1422,12 +1422,7 @@ impl Accumulation<'_> {
     /// part.len()` it touches. Triangles whose cells are all outside the range are
     /// skipped before their planes are computed. With `used`, marks there every
     /// vertex a triangle uses.
-    fn run<const QUADRIC: bool>(
-        &self,
-        part: &mut [Acc],
-        start: u32,
-        mut used: Option<&mut [bool]>,
-    ) {
+    fn run<const QUADRIC: bool>(&self, part: &mut [Acc], start: u32, used: Option<&mut [bool]>) {
         let mesh = self.mesh;
         let vcell = self.vcell;
         let len = part.len() as u32;
@@ -1436,6 +1431,13 @@ impl Accumulation<'_> {
         let mut cells_of = [[0u32; 3]; BLOCK];
         let mut planes = Block::new();
         let n = mesh.triangles.len();
+        if let Some(u) = used {
+            for &v in mesh.triangles.as_flattened() {
+                u[v as usize] = true;
+            }
+        }
+        // One worker owning every cell (the sequential path) visits every triangle.
+        let every = self.spans.is_none() && start == 0;
         for (b, first) in (0..n).step_by(BLOCK).enumerate() {
             if let Some(spans) = self.spans {
                 let (lo, hi) = spans[b];
@@ -1445,17 +1447,19 @@ impl Accumulation<'_> {
             }
             let last = (first + BLOCK).min(n);
             let mut m = 0;
-            for t in first..last {
-                let tri = &mesh.triangles[t];
-                let c = tri.map(|v| vcell[v as usize]);
-                if let Some(u) = used.as_deref_mut() {
-                    for &v in tri {
-                        u[v as usize] = true;
-                    }
+            if every {
+                for (i, tri) in mesh.triangles[first..last].iter().enumerate() {
+                    which[i] = (first + i) as u32;
+                    cells_of[i] = tri.map(|v| vcell[v as usize]);
                 }
-                which[m] = t as u32;
-                cells_of[m] = c;
-                m += usize::from(owned(c[0]) | owned(c[1]) | owned(c[2]));
+                m = last - first;
+            } else {
+                for t in first..last {
+                    let c = mesh.triangles[t].map(|v| vcell[v as usize]);
+                    which[m] = t as u32;
+                    cells_of[m] = c;
+                    m += usize::from(owned(c[0]) | owned(c[1]) | owned(c[2]));
+                }
             }
             prepare_block(
                 m,

@@ -77,9 +77,9 @@
 //! against `log ε` inside the bracket of all probes so far (the count falls roughly
 //! as ε⁻²); where the bracket's two sides differ in cells per axis (the count jumps
 //! there on coarse grids), the smallest ε with the coarse side's cells is probed
-//! first. Probes stop within `0.8·tolerance` in memory (where a probe's count is the
-//! first stage's) and within `min(0.4·tolerance, 2%)` streamed (a sample's
-//! estimate), or within `0.8·tolerance` after six probes, and after sixteen at most.
+//! first. Probes stop within `0.8·tolerance` where a probe's count is the first
+//! stage's (in memory, or streamed with every triangle in the sample) and within
+//! `min(0.4·tolerance, 2%)` on a partial sample (an estimate), or within `0.8·tolerance` after six probes, and after sixteen at most.
 //! The first stage (cell ids, distinct triangles) then gives the count exactly (in
 //! memory it only visits the last probe's triangles with three distinct cells when
 //! that probe was on the same grid); when
@@ -580,8 +580,9 @@ trait Pipeline {
     /// What [`Pipeline::stage`] hands to [`Pipeline::complete`].
     type Staged;
     /// Whether [`Pipeline::count`] is the exact count of [`Pipeline::stage`] (in
-    /// memory), not an estimate (streamed: from a sample).
-    const EXACT: bool;
+    /// memory, or streamed when the sample holds every triangle), not an estimate
+    /// (streamed from a partial sample). Both paths then search alike.
+    fn exact(&self) -> bool;
     /// The probe count on `grid`: triangles with three distinct cells, counting
     /// copies over the same three cells once (`goal` sizes the tables).
     fn count(&mut self, grid: &Grid, goal: usize) -> usize;
@@ -688,6 +689,7 @@ pub fn cluster_file(
         path,
         options,
         scale: if m == 0 { 1.0 } else { n as f64 / m as f64 },
+        whole: m == n,
         sample: sample.tris,
         failure: None,
         triples: KeyTriples::default(),
@@ -756,7 +758,7 @@ fn drive<P: Pipeline>(
     for round in 0..3 {
         // A probe of an exact pipeline is the first stage's count: it only has to
         // leave room for the few triangles the second clean-up removes.
-        let strict = if P::EXACT {
+        let strict = if p.exact() {
             0.8 * tol
         } else {
             (0.4 * tol).min(0.02)
@@ -1174,7 +1176,10 @@ impl InMemory<'_> {
 
 impl Pipeline for InMemory<'_> {
     type Staged = MemStaged;
-    const EXACT: bool = true;
+
+    fn exact(&self) -> bool {
+        true
+    }
 
     fn count(&mut self, grid: &Grid, goal: usize) -> usize {
         self.keys_for(grid);
@@ -1494,6 +1499,8 @@ struct Streamed<'a> {
     sample: Vec<[[f32; 3]; 3]>,
     /// Triangles in the file per sampled triangle.
     scale: f64,
+    /// Whether the sample holds every triangle of the file.
+    whole: bool,
     /// The first read error (the builds after it return empty results).
     failure: Option<IoError>,
     triples: KeyTriples,
@@ -1501,7 +1508,10 @@ struct Streamed<'a> {
 
 impl Pipeline for Streamed<'_> {
     type Staged = Clustered;
-    const EXACT: bool = false;
+
+    fn exact(&self) -> bool {
+        self.whole
+    }
 
     fn count(&mut self, grid: &Grid, goal: usize) -> usize {
         let tris = &self.sample;

@@ -1144,8 +1144,10 @@ impl Surface {
         let q1 = f64x3(self.pos[tt[(k + 1) % 3] as usize]);
         let q2 = f64x3(self.pos[tt[(k + 2) % 3] as usize]);
         let f = sub(q2, q1);
-        let n0 = cross(f, sub(pw, q1));
-        let n1 = cross(f, sub(geo.p, q1));
+        let a0 = sub(pw, q1);
+        let a1 = sub(geo.p, q1);
+        let n0 = cross(f, a0);
+        let n1 = cross(f, a1);
         let l1 = dot(n1, n1);
         if l1 <= geo.area_eps {
             return Err(Reject::Degenerate);
@@ -1154,11 +1156,27 @@ impl Surface {
         if d <= geo.cos_limit * (dot(n0, n0) * l1).sqrt() {
             return Err(Reject::FoldOver);
         }
+        // Squared edge sums in corner order (for the quality filter): with the
+        // moving corner x at k, the edges are F = |q2 − q1|², A = |x − q1|² and
+        // B = |x − q2|², and the order 0→1, 1→2, 2→0 adds them as (A+F)+B, (B+A)+F
+        // or (F+B)+A (a difference and its negation square alike).
+        let ff = dot(f, f);
+        let edges = |a: [f64; 3], x: [f64; 3]| {
+            let (ea, b) = (dot(a, a), sub(x, q2));
+            let eb = dot(b, b);
+            match k {
+                0 => ea + ff + eb,
+                1 => eb + ea + ff,
+                _ => ff + eb + ea,
+            }
+        };
         Ok(ChangedTriangle {
             triangle: t,
             old_normal: n0,
             new_normal: n1,
             corner: k as u8,
+            old_edges2: edges(a0, pw),
+            new_edges2: edges(a1, geo.p),
         })
     }
 

@@ -27,6 +27,7 @@ pub mod lod;
 pub mod mesh;
 pub mod metrics;
 pub mod quadric;
+mod radix;
 pub mod simplify;
 
 pub use io::{read_mesh, read_scene, write_mesh, write_scene, Scene};

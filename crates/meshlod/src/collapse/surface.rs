@@ -333,7 +333,7 @@ impl Surface {
             .filter(|&p| self.fan_slot[p as usize].len > 0)
             .map(|p| (u64::from(self.fan_slot[p as usize].start) << 32) | u64::from(p))
             .collect();
-        order.sort_unstable();
+        crate::radix::sort_by_high_half(&mut order);
         let mut w = 0usize;
         for &key in &order {
             let p = key as u32;

@@ -219,7 +219,7 @@ impl Bvh {
             })
             .collect();
         drop(sums);
-        keys.sort_unstable();
+        crate::radix::sort_by_high_half(&mut keys);
         let code = |i: usize| (keys[i] >> 32) as u32;
         let mut nodes: Vec<Node> = Vec::with_capacity(2 * n / LEAF_SIZE + 1);
         nodes.push(Node::ROOT);

@@ -23,6 +23,7 @@ pub mod cost;
 pub mod decimate;
 pub mod filter;
 pub mod io;
+mod isa;
 pub mod lod;
 pub mod mesh;
 pub mod metrics;

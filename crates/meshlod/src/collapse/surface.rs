@@ -92,7 +92,7 @@ pub struct Surface {
     fold_cos: f64,
 }
 
-#[inline]
+#[inline(always)]
 fn f64x3(p: [f32; 3]) -> [f64; 3] {
     [f64::from(p[0]), f64::from(p[1]), f64::from(p[2])]
 }
@@ -995,7 +995,21 @@ impl Surface {
 
     /// One pass over each fan: dying triangles, the link condition and the geometry
     /// of the surviving triangles together. Returns the number of dying triangles.
+    /// Runs as the AVX2 build where the CPU has it ([`crate::isa`]; same bits).
     fn check_fans(
+        &mut self,
+        u: u32,
+        v: u32,
+        v_moves: bool,
+        limits: &OperatorLimits,
+        geo: &Geometry,
+        changed: &mut Vec<ChangedTriangle>,
+    ) -> Result<usize, Reject> {
+        crate::isa::dispatch(|| self.check_fans_impl(u, v, v_moves, limits, geo, changed))
+    }
+
+    #[inline(always)]
+    fn check_fans_impl(
         &mut self,
         u: u32,
         v: u32,
@@ -1125,7 +1139,7 @@ impl Surface {
     /// degenerates or turns past the fold-over limit. With the other corners `q1`,
     /// `q2` in order, the normal is `(q2 − q1) × (x − q1)` for the moving corner `x`,
     /// so old and new share one edge vector.
-    #[inline]
+    #[inline(always)]
     fn moved_triangle(
         &self,
         t: u32,

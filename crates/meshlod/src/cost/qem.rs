@@ -115,7 +115,21 @@ impl Qem {
     /// The placement rule for pair `(a, b)` under the summed quadric `q`, and its
     /// cost `q(x)` (clamped at 0): shared by [`CostModel::evaluate`] and the queue's
     /// leaner [`CostModel::evaluate_cost`], so both give the same cost bit for bit.
+    ///
+    /// Runs as the AVX2 build where the CPU has it ([`crate::isa`]; same bits).
     fn choose(
+        &self,
+        q: &Quadric,
+        surface: &Surface,
+        a: u32,
+        b: u32,
+        moves: &Moves,
+    ) -> Option<(Choice, f64)> {
+        crate::isa::dispatch(|| self.choose_impl(q, surface, a, b, moves))
+    }
+
+    #[inline(always)]
+    fn choose_impl(
         &self,
         q: &Quadric,
         surface: &Surface,

@@ -1270,12 +1270,21 @@ impl Surface {
         // Merge the fans into v.
         let sv = self.fan_slot[v as usize].start as usize;
         let lv = self.fan_slot[v as usize].len as usize;
-        let live_v = (0..lv)
-            .filter(|&i| self.tri[self.fans[sv + i] as usize][0] != DEAD)
-            .count();
-        let live_u = (0..lu)
-            .filter(|&i| self.tri[self.fans[su + i] as usize][0] != DEAD)
-            .count();
+        // A fan lists live triangles only, each once, and the dying ones (over both
+        // u and v) are in both fans: what is left of each is its length minus them.
+        let (live_v, live_u) = (lv - n_dead, lu - n_dead);
+        debug_assert_eq!(
+            live_v,
+            (0..lv)
+                .filter(|&i| self.tri[self.fans[sv + i] as usize][0] != DEAD)
+                .count()
+        );
+        debug_assert_eq!(
+            live_u,
+            (0..lu)
+                .filter(|&i| self.tri[self.fans[su + i] as usize][0] != DEAD)
+                .count()
+        );
         let new_len = live_v + live_u;
         if new_len <= self.fan_slot[v as usize].cap as usize {
             let mut w = sv;

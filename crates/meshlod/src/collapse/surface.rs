@@ -786,6 +786,11 @@ impl Surface {
     /// passes of independent loads (what [`Self::check`] walks next), so that their
     /// cache misses overlap. A hint: nothing changes.
     pub fn prefetch_pair(&self, u: u32, v: u32) {
+        crate::isa::dispatch(|| self.prefetch_pair_impl(u, v));
+    }
+
+    #[inline(always)]
+    fn prefetch_pair_impl(&self, u: u32, v: u32) {
         if u as usize >= self.pos.len() || v as usize >= self.pos.len() {
             return;
         }

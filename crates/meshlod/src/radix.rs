@@ -53,7 +53,12 @@ mod tests {
     /// the radix sort equals the comparison sort.
     #[test]
     fn equals_comparison_sort() {
-        for (n, range) in [(10usize, 7u64), (5000, 3), (5000, 1 << 20), (20000, u64::from(u32::MAX))] {
+        for (n, range) in [
+            (10usize, 7u64),
+            (5000, 3),
+            (5000, 1 << 20),
+            (20000, u64::from(u32::MAX)),
+        ] {
             let mut x = 0x9e37_79b9_7f4a_7c15u64;
             let mut keys: Vec<u64> = (0..n as u64)
                 .map(|i| {

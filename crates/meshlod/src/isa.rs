@@ -71,6 +71,19 @@ pub(crate) fn dispatch<R>(f: impl FnOnce() -> R) -> R {
     f()
 }
 
+/// `f` run as the baseline build and, when the CPU has the features, as the AVX2
+/// build: for tests that the two give the same bits.
+#[cfg(test)]
+pub(crate) fn both<R>(f: impl Fn() -> R) -> (R, Option<R>) {
+    let base = f();
+    #[cfg(target_arch = "x86_64")]
+    if x86::avx2() {
+        // SAFETY: `avx2()` checked every feature `run` enables.
+        return (base, Some(unsafe { x86::run(f) }));
+    }
+    (base, None)
+}
+
 #[cfg(test)]
 mod tests {
     /// Both paths run the closure once and return its value.

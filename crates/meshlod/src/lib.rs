@@ -23,10 +23,12 @@ pub mod cost;
 pub mod decimate;
 pub mod filter;
 pub mod io;
+mod isa;
 pub mod lod;
 pub mod mesh;
 pub mod metrics;
 pub mod quadric;
+mod radix;
 pub mod simplify;
 
 pub use io::{read_mesh, read_scene, write_mesh, write_scene, Scene};

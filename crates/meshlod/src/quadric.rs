@@ -152,7 +152,7 @@ impl Quadric {
     /// `Δ(x) = x̄ᵀ Q x̄`. Mathematically non-negative; rounding can make it slightly
     /// negative, so callers that need a distance should use [`Self::distance`].
     #[must_use]
-    #[inline]
+    #[inline(always)]
     pub fn evaluate(&self, x: [f64; 3]) -> f64 {
         let m = &self.m;
         let [x, y, z] = x;
@@ -174,7 +174,7 @@ impl Quadric {
     }
 
     /// `A x + b` where `A` is the upper-left 3×3 block and `b` the last column.
-    #[inline]
+    #[inline(always)]
     fn gradient_half(&self, x: [f64; 3]) -> [f64; 3] {
         let m = &self.m;
         [
@@ -188,7 +188,7 @@ impl Quadric {
     /// `origin` (pass a nearby point, e.g. the edge midpoint, for conditioning).
     /// `None` when the system is ill-conditioned: `det(A) ≤ condition · (tr(A)/3)³`.
     #[must_use]
-    #[inline]
+    #[inline(always)]
     pub fn solve(&self, origin: [f64; 3], condition: f64) -> Option<[f64; 3]> {
         let m = &self.m;
         let (a00, a01, a02, a11, a12, a22) = (m[0], m[1], m[2], m[4], m[5], m[7]);
@@ -220,7 +220,7 @@ impl Quadric {
     /// that end). When `Δ` is flat along the segment the midpoint is returned.
     /// Returns `(t, position, cost)`.
     #[must_use]
-    #[inline]
+    #[inline(always)]
     pub fn minimize_on_segment(&self, p0: [f64; 3], p1: [f64; 3]) -> (f64, [f64; 3], f64) {
         let d = sub(p1, p0);
         let g = self.gradient_half(p0);
@@ -254,6 +254,7 @@ impl Quadric {
     /// within `max_reach` edge lengths of the midpoint, otherwise the minimum along
     /// the segment (which includes both endpoints and the midpoint).
     #[must_use]
+    #[inline(always)]
     pub fn minimize(&self, p0: [f64; 3], p1: [f64; 3], condition: f64, max_reach: f64) -> Minimum {
         let mid = scale(add(p0, p1), 0.5);
         if let Some(x) = self.solve(mid, condition) {
@@ -276,23 +277,23 @@ impl Quadric {
     }
 }
 
-#[inline]
+#[inline(always)]
 pub(crate) fn sub(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
     [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
 }
-#[inline]
+#[inline(always)]
 pub(crate) fn add(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
     [a[0] + b[0], a[1] + b[1], a[2] + b[2]]
 }
-#[inline]
+#[inline(always)]
 pub(crate) fn scale(a: [f64; 3], s: f64) -> [f64; 3] {
     [a[0] * s, a[1] * s, a[2] * s]
 }
-#[inline]
+#[inline(always)]
 pub(crate) fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
     a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
 }
-#[inline]
+#[inline(always)]
 pub(crate) fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
     [
         a[1] * b[2] - a[2] * b[1],
@@ -300,7 +301,7 @@ pub(crate) fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
         a[0] * b[1] - a[1] * b[0],
     ]
 }
-#[inline]
+#[inline(always)]
 pub(crate) fn norm(a: [f64; 3]) -> f64 {
     dot(a, a).sqrt()
 }

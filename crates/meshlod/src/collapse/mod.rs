@@ -144,6 +144,11 @@ pub struct ChangedTriangle {
     pub new_normal: [f64; 3],
     /// Which corner (0, 1, 2) moves to [`Preview::position`].
     pub corner: u8,
+    /// Sum of the squared edge lengths before, added in corner order (edges 0→1,
+    /// 1→2, 2→0), as [`crate::filter::triangle_quality`] adds them.
+    pub old_edges2: f64,
+    /// The same after.
+    pub new_edges2: f64,
 }
 
 impl ChangedTriangle {

@@ -92,7 +92,7 @@ pub struct Surface {
     fold_cos: f64,
 }
 
-#[inline]
+#[inline(always)]
 fn f64x3(p: [f32; 3]) -> [f64; 3] {
     [f64::from(p[0]), f64::from(p[1]), f64::from(p[2])]
 }
@@ -333,7 +333,7 @@ impl Surface {
             .filter(|&p| self.fan_slot[p as usize].len > 0)
             .map(|p| (u64::from(self.fan_slot[p as usize].start) << 32) | u64::from(p))
             .collect();
-        order.sort_unstable();
+        crate::radix::sort_by_high_half(&mut order);
         let mut w = 0usize;
         for &key in &order {
             let p = key as u32;
@@ -786,6 +786,11 @@ impl Surface {
     /// passes of independent loads (what [`Self::check`] walks next), so that their
     /// cache misses overlap. A hint: nothing changes.
     pub fn prefetch_pair(&self, u: u32, v: u32) {
+        crate::isa::dispatch(|| self.prefetch_pair_impl(u, v));
+    }
+
+    #[inline(always)]
+    fn prefetch_pair_impl(&self, u: u32, v: u32) {
         if u as usize >= self.pos.len() || v as usize >= self.pos.len() {
             return;
         }
@@ -995,7 +1000,21 @@ impl Surface {
 
     /// One pass over each fan: dying triangles, the link condition and the geometry
     /// of the surviving triangles together. Returns the number of dying triangles.
+    /// Runs as the AVX2 build where the CPU has it ([`crate::isa`]; same bits).
     fn check_fans(
+        &mut self,
+        u: u32,
+        v: u32,
+        v_moves: bool,
+        limits: &OperatorLimits,
+        geo: &Geometry,
+        changed: &mut Vec<ChangedTriangle>,
+    ) -> Result<usize, Reject> {
+        crate::isa::dispatch(|| self.check_fans_impl(u, v, v_moves, limits, geo, changed))
+    }
+
+    #[inline(always)]
+    fn check_fans_impl(
         &mut self,
         u: u32,
         v: u32,
@@ -1125,7 +1144,7 @@ impl Surface {
     /// degenerates or turns past the fold-over limit. With the other corners `q1`,
     /// `q2` in order, the normal is `(q2 − q1) × (x − q1)` for the moving corner `x`,
     /// so old and new share one edge vector.
-    #[inline]
+    #[inline(always)]
     fn moved_triangle(
         &self,
         t: u32,
@@ -1144,8 +1163,10 @@ impl Surface {
         let q1 = f64x3(self.pos[tt[(k + 1) % 3] as usize]);
         let q2 = f64x3(self.pos[tt[(k + 2) % 3] as usize]);
         let f = sub(q2, q1);
-        let n0 = cross(f, sub(pw, q1));
-        let n1 = cross(f, sub(geo.p, q1));
+        let a0 = sub(pw, q1);
+        let a1 = sub(geo.p, q1);
+        let n0 = cross(f, a0);
+        let n1 = cross(f, a1);
         let l1 = dot(n1, n1);
         if l1 <= geo.area_eps {
             return Err(Reject::Degenerate);
@@ -1154,11 +1175,27 @@ impl Surface {
         if d <= geo.cos_limit * (dot(n0, n0) * l1).sqrt() {
             return Err(Reject::FoldOver);
         }
+        // Squared edge sums in corner order (for the quality filter): with the
+        // moving corner x at k, the edges are F = |q2 − q1|², A = |x − q1|² and
+        // B = |x − q2|², and the order 0→1, 1→2, 2→0 adds them as (A+F)+B, (B+A)+F
+        // or (F+B)+A (a difference and its negation square alike).
+        let ff = dot(f, f);
+        let edges = |a: [f64; 3], x: [f64; 3]| {
+            let (ea, b) = (dot(a, a), sub(x, q2));
+            let eb = dot(b, b);
+            match k {
+                0 => ea + ff + eb,
+                1 => eb + ea + ff,
+                _ => ff + eb + ea,
+            }
+        };
         Ok(ChangedTriangle {
             triangle: t,
             old_normal: n0,
             new_normal: n1,
             corner: k as u8,
+            old_edges2: edges(a0, pw),
+            new_edges2: edges(a1, geo.p),
         })
     }
 
@@ -1238,12 +1275,21 @@ impl Surface {
         // Merge the fans into v.
         let sv = self.fan_slot[v as usize].start as usize;
         let lv = self.fan_slot[v as usize].len as usize;
-        let live_v = (0..lv)
-            .filter(|&i| self.tri[self.fans[sv + i] as usize][0] != DEAD)
-            .count();
-        let live_u = (0..lu)
-            .filter(|&i| self.tri[self.fans[su + i] as usize][0] != DEAD)
-            .count();
+        // A fan lists live triangles only, each once, and the dying ones (over both
+        // u and v) are in both fans: what is left of each is its length minus them.
+        let (live_v, live_u) = (lv - n_dead, lu - n_dead);
+        debug_assert_eq!(
+            live_v,
+            (0..lv)
+                .filter(|&i| self.tri[self.fans[sv + i] as usize][0] != DEAD)
+                .count()
+        );
+        debug_assert_eq!(
+            live_u,
+            (0..lu)
+                .filter(|&i| self.tri[self.fans[su + i] as usize][0] != DEAD)
+                .count()
+        );
         let new_len = live_v + live_u;
         if new_len <= self.fan_slot[v as usize].cap as usize {
             let mut w = sv;

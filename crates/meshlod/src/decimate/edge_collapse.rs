@@ -137,8 +137,14 @@ impl<C: CostModel + ?Sized> Driver<'_, C> {
         self.heap.heapify();
     }
 
-    /// Re-queues the pairs of `v` after it changed.
+    /// Re-queues the pairs of `v` after it changed. Runs as the AVX2 build where the
+    /// CPU has it ([`crate::isa`]; same bits).
     fn push_around(&mut self, v: u32) {
+        crate::isa::dispatch(|| self.push_around_impl(v));
+    }
+
+    #[inline(always)]
+    fn push_around_impl(&mut self, v: u32) {
         let mut nb = std::mem::take(&mut self.scratch);
         self.surface.neighbours(v, &mut nb);
         // Read the neighbours' state in one pass first: their cache misses then

@@ -66,7 +66,14 @@ pub fn triangle_quality(corners: &[[f64; 3]; 3], normal: [f64; 3]) -> f64 {
         let d = sub(corners[j], corners[i]);
         dot(d, d)
     };
-    let s = e(0, 1) + e(1, 2) + e(2, 0);
+    quality_from_edges(e(0, 1) + e(1, 2) + e(2, 0), normal)
+}
+
+/// [`triangle_quality`] from the sum of the squared edge lengths and the normal
+/// (length twice the area).
+#[must_use]
+#[inline]
+pub fn quality_from_edges(s: f64, normal: [f64; 3]) -> f64 {
     if s > 0.0 {
         // |normal| = 2 · area, so 4√3 · area = 2√3 · |normal|.
         2.0 * 3f64.sqrt() * dot(normal, normal).sqrt() / s
@@ -92,11 +99,12 @@ impl Filter for AspectRatio {
         true
     }
 
-    fn allow(&self, surface: &Surface, preview: &Preview) -> bool {
+    fn allow(&self, _surface: &Surface, preview: &Preview) -> bool {
+        // The edge sums come with the preview (the operator's check had the corners
+        // loaded): the same sums, in the same order, as `triangle_quality` forms.
         preview.changed.iter().all(|c| {
-            let (old, new) = c.corners(surface, preview);
-            let q1 = triangle_quality(&new, c.new_normal);
-            q1 >= self.min_quality || q1 >= triangle_quality(&old, c.old_normal)
+            let q1 = quality_from_edges(c.new_edges2, c.new_normal);
+            q1 >= self.min_quality || q1 >= quality_from_edges(c.old_edges2, c.old_normal)
         })
     }
 }

@@ -219,7 +219,7 @@ impl Bvh {
             })
             .collect();
         drop(sums);
-        keys.sort_unstable();
+        crate::radix::sort_by_high_half(&mut keys);
         let code = |i: usize| (keys[i] >> 32) as u32;
         let mut nodes: Vec<Node> = Vec::with_capacity(2 * n / LEAF_SIZE + 1);
         nodes.push(Node::ROOT);
@@ -355,6 +355,12 @@ impl Bvh {
     /// only speeds the search up, the answer is exact whatever it is.
     #[must_use]
     pub fn closest(&self, p: V3, hint: Option<u32>) -> Option<Closest> {
+        // The AVX2 build where the CPU has it (`crate::isa`; same bits).
+        crate::isa::dispatch(|| self.closest_impl(p, hint))
+    }
+
+    #[inline(always)]
+    fn closest_impl(&self, p: V3, hint: Option<u32>) -> Option<Closest> {
         if self.tris.is_empty() {
             return None;
         }
@@ -463,7 +469,7 @@ impl Bvh {
         true
     }
 
-    #[inline]
+    #[inline(always)]
     fn test_slot(&self, p: V3, slot: usize, best: &mut Closest) {
         let t = &self.tris[slot];
         let f = |v: [f32; 3]| [f64::from(v[0]), f64::from(v[1]), f64::from(v[2])];
@@ -518,7 +524,7 @@ fn morton3(x: u32, y: u32, z: u32) -> u32 {
     spread(x) | (spread(y) << 1) | (spread(z) << 2)
 }
 
-#[inline]
+#[inline(always)]
 fn box_dist2(p: V3, n: &Node) -> f64 {
     let mut d = 0.0;
     for (k, &x) in p.iter().enumerate() {

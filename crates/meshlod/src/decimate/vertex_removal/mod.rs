@@ -866,15 +866,15 @@ impl VertexRemoval {
             let (f0, f1) = (&plan.ring[i0], &plan.ring[i]);
             let is_seam =
                 plan.left[i] != plan.right[i] || f0.wedge[0] != f1.wedge[0] || f0.group != f1.group;
-            let n0 = plan.normal[i0];
-            let n1 = plan.normal[i];
-            let crease = dot(n0, n1) < self.cos_feature * (dot(n0, n0) * dot(n1, n1)).sqrt();
             if is_seam {
                 if ns < 2 {
                     seams[ns] = i;
                 }
                 ns += 1;
-            } else if crease {
+            } else if {
+                let (n0, n1) = (plan.normal[i0], plan.normal[i]);
+                dot(n0, n1) < self.cos_feature * (dot(n0, n0) * dot(n1, n1)).sqrt()
+            } {
                 if nc < 2 {
                     creases[nc] = i;
                 }
@@ -973,7 +973,8 @@ impl VertexRemoval {
             let a = norm(n);
             area_n = add(area_n, n);
             area_sum += a;
-            let c = scale(add(self.plan.pos[i], self.plan.pos[(i + 1) % m]), 1.0 / 3.0);
+            let j = if i + 1 == m { 0 } else { i + 1 };
+            let c = scale(add(self.plan.pos[i], self.plan.pos[j]), 1.0 / 3.0);
             base = add(base, scale(c, a));
         }
         if area_sum <= self.area_eps {
@@ -1087,7 +1088,7 @@ impl VertexRemoval {
                     let mut i = from;
                     while i != to {
                         n = add(n, self.plan.normal[i]);
-                        i = (i + 1) % m;
+                        i = if i + 1 == m { 0 } else { i + 1 };
                     }
                     n
                 };
@@ -1152,7 +1153,7 @@ impl VertexRemoval {
             if i == r.last {
                 break;
             }
-            i = (i + 1) % m;
+            i = if i + 1 == m { 0 } else { i + 1 };
         }
         plan.stack.push((0, plan.polys.len() as u32));
         let n = r.normal;
@@ -1231,7 +1232,8 @@ impl VertexRemoval {
                 }
                 for e in 0..3 {
                     let (x, y) = (c[e] as usize, c[(e + 1) % 3] as usize);
-                    if (x + 1) % m == y && x < plan.origin.len() && dot(tn, plan.origin[x]) <= 0.0 {
+                    let next = if x + 1 == m { 0 } else { x + 1 };
+                    if next == y && x < plan.origin.len() && dot(tn, plan.origin[x]) <= 0.0 {
                         return Err(Refusal::Flip);
                     }
                 }
@@ -1415,7 +1417,7 @@ impl VertexRemoval {
             if i == r.last {
                 break;
             }
-            i = (i + 1) % m;
+            i = if i + 1 == m { 0 } else { i + 1 };
         }
         gap
     }

@@ -491,6 +491,13 @@ fn slack_bits(bits: u32, slack: f64) -> u32 {
         .cost_bits
 }
 
+/// Whether two triangles with (unnormalised) normals `n0` and `n1` meet at a
+/// dihedral angle whose cosine is below `cos_feature`.
+#[inline]
+fn is_crease(n0: [f64; 3], n1: [f64; 3], cos_feature: f64) -> bool {
+    dot(n0, n1) < cos_feature * (dot(n0, n0) * dot(n1, n1)).sqrt()
+}
+
 #[inline]
 fn add(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
     [a[0] + b[0], a[1] + b[1], a[2] + b[2]]
@@ -871,10 +878,7 @@ impl VertexRemoval {
                     seams[ns] = i;
                 }
                 ns += 1;
-            } else if {
-                let (n0, n1) = (plan.normal[i0], plan.normal[i]);
-                dot(n0, n1) < self.cos_feature * (dot(n0, n0) * dot(n1, n1)).sqrt()
-            } {
+            } else if is_crease(plan.normal[i0], plan.normal[i], self.cos_feature) {
                 if nc < 2 {
                     creases[nc] = i;
                 }

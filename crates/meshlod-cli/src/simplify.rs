@@ -91,6 +91,15 @@ pub struct SimplifyArgs {
     /// edges).
     #[arg(long)]
     pub keep_corners: bool,
+    /// vertex-removal: order slack S >= 1: a removal whose exact cost is at most S
+    /// times the next queued cost is done at once (1 = exact cheapest-first order).
+    #[arg(long, value_name = "S")]
+    pub order_slack: Option<f64>,
+    /// vertex-removal: deferred re-keying: neighbours of a removal stay queued at
+    /// their previous cost divided by P (>= 1) until they come out of the queue
+    /// (faster, inexact order; default: re-evaluated at once).
+    #[arg(long, value_name = "P")]
+    pub defer_neighbours: Option<f64>,
     /// qem, melax: skip the orientation repair (diagonal swaps that turn triangles
     /// facing away from the input back toward it without raising the distance).
     #[arg(long)]
@@ -306,6 +315,18 @@ fn options(args: &SimplifyArgs) -> Result<SimplifyOptions> {
         o = o.with_feature_angle(a);
     }
     o = o.with_keep_corners(args.keep_corners);
+    if let Some(s) = args.order_slack {
+        if !(s >= 1.0 && s.is_finite()) {
+            bail!("--order-slack {s} must be a finite number >= 1");
+        }
+        o = o.with_order_slack(s);
+    }
+    if let Some(p) = args.defer_neighbours {
+        if !(p >= 1.0 && p.is_finite()) {
+            bail!("--defer-neighbours {p} must be a finite number >= 1");
+        }
+        o = o.with_defer_neighbours(Some(p));
+    }
     o = o.with_facing_repair(!args.no_facing_repair);
     Ok(o.with_lock_boundary(args.lock_boundary))
 }

@@ -178,6 +178,16 @@ pub struct SimplifyOptions {
     /// feature edges). Default `false` (corners go by their distance to the average
     /// plane, as in `vtkDecimate`).
     pub keep_corners: bool,
+    /// [`Method::VertexRemoval`]: order slack `S ≥ 1`: a removal whose exact key is at
+    /// most `S ×` the next queued key is performed without being queued again (`1` =
+    /// the exact order). Default
+    /// [`DEFAULT_ORDER_SLACK`](crate::decimate::vertex_removal::DEFAULT_ORDER_SLACK).
+    pub order_slack: f64,
+    /// [`Method::VertexRemoval`]: deferred re-keying: `Some(p)` (`p ≥ 1`) leaves the
+    /// neighbours of a removal queued at their previous key divided by `p` until they
+    /// come out of the queue (about half the evaluations; inexact order). Default
+    /// `None` (re-evaluated at once).
+    pub defer_neighbours: Option<f64>,
     /// [`Method::Qem`] and [`Method::Melax`]: after simplifying, swap the diagonal
     /// of quads whose triangles face away from the input surface when that turns
     /// them back without raising the distance to the input (see the `facing`
@@ -205,6 +215,8 @@ impl Default for SimplifyOptions {
             cluster: ClusterOptions::default(),
             feature_angle: crate::decimate::vertex_removal::DEFAULT_FEATURE_ANGLE,
             keep_corners: false,
+            order_slack: crate::decimate::vertex_removal::DEFAULT_ORDER_SLACK,
+            defer_neighbours: None,
             facing_repair: true,
         }
     }
@@ -312,6 +324,18 @@ impl SimplifyOptions {
     #[must_use]
     pub fn with_keep_corners(mut self, keep: bool) -> Self {
         self.keep_corners = keep;
+        self
+    }
+    /// Sets [`Self::order_slack`].
+    #[must_use]
+    pub fn with_order_slack(mut self, slack: f64) -> Self {
+        self.order_slack = slack;
+        self
+    }
+    /// Sets [`Self::defer_neighbours`].
+    #[must_use]
+    pub fn with_defer_neighbours(mut self, factor: Option<f64>) -> Self {
+        self.defer_neighbours = factor;
         self
     }
 
@@ -583,6 +607,8 @@ pub fn simplify_observed(
                 VertexRemovalOptions {
                     feature_angle: options.feature_angle,
                     keep_corners: options.keep_corners,
+                    order_slack: options.order_slack,
+                    defer_neighbours: options.defer_neighbours,
                     lock_boundary: options.lock_boundary,
                     stop: driver_options.stop,
                 },

@@ -225,6 +225,36 @@ fn uv_seam_respected() {
     assert!(s.mesh.triangles.len() < m.triangles.len() / 2);
 }
 
+/// The inexact orders (order slack, deferred re-keying) keep every invariant, reach
+/// the targets, and keep the accumulated bound above the measured distance; a slack
+/// below 1 is the exact order, and deferring does change the order.
+#[test]
+fn inexact_orders_keep_invariants_and_bound() {
+    let bumpy = generate::grid(40, 40, |x, y| 0.1 * (7.0 * x).sin() * (5.0 * y).cos());
+    let exact = run(&bumpy, &vr().with_ratio(0.1));
+    let below_one = run(&bumpy, &vr().with_ratio(0.1).with_order_slack(0.5));
+    assert_eq!(exact.mesh, below_one.mesh);
+    let mut differs = false;
+    for (slack, defer) in [(1.5, None), (1.0, Some(1.0)), (1.2, Some(1.5))] {
+        let o = vr().with_order_slack(slack).with_defer_neighbours(defer);
+        for m in [&bumpy, &generate::torus(48, 24, 2.0, 0.6)] {
+            let s = run(m, &o.clone().with_ratio(0.1));
+            assert_eq!(s.report.stop_reason, StopReason::TargetReached);
+            let (a, b) = (MeshStats::of(m), MeshStats::of(&s.mesh));
+            assert_eq!(a.topology.genus, b.topology.genus);
+            assert_eq!(a.topology.boundary_loops, b.topology.boundary_loops);
+        }
+        let s = run(&bumpy, &o.clone().with_ratio(0.1));
+        differs |= s.mesh != exact.mesh;
+        let e = 0.01;
+        let s = run(&bumpy, &o.with_max_error(Distance::Absolute(e)));
+        assert!(s.report.error_absolute <= e);
+        let d = hausdorff(&bumpy, &s.mesh, &SamplingOptions::default());
+        assert!(d.hausdorff <= s.report.error_absolute * (1.0 + 1e-6) + 1e-12);
+    }
+    assert!(differs, "the inexact orders gave the exact order's mesh");
+}
+
 /// Deterministic: the same input gives the same output.
 #[test]
 fn deterministic() {

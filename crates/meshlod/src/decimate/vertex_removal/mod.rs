@@ -103,6 +103,14 @@
 //! fan, so valid while the point's version is unchanged) and performed as kept when
 //! the entry comes out, after the deferred checks below.
 //!
+//! Two options trade that exactness for speed. With an order slack `S > 1`
+//! ([`VertexRemovalOptions::order_slack`]) a popped candidate whose exact key is at
+//! most `S ×` the next queued key is removed at once instead of being queued again.
+//! With deferred re-keying ([`VertexRemovalOptions::defer_neighbours`]) the loop
+//! points of a removal keep their previous key (divided by a factor) until it comes
+//! out of the queue, and only then are their changed fans evaluated: about half the
+//! evaluations, but a point whose key fell waits behind cheaper-looking ones.
+//!
 //! A popped lower-bound entry is planned without the checks against existing edges
 //! (most such plans are queued again with their exact key and invalidated by a
 //! neighbour's removal before they come back); the checks run on the plans about to
@@ -137,6 +145,9 @@ pub const FACING_FROM: f64 = 2e-3;
 /// The default feature angle in degrees (`vtkDecimatePro`'s default).
 pub const DEFAULT_FEATURE_ANGLE: f64 = 15.0;
 
+/// The default order slack ([`VertexRemovalOptions::order_slack`]).
+pub const DEFAULT_ORDER_SLACK: f64 = 1.0;
+
 /// Options of [`VertexRemoval`].
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct VertexRemovalOptions {
@@ -149,6 +160,17 @@ pub struct VertexRemovalOptions {
     pub keep_corners: bool,
     /// Never remove boundary points. Default `false`.
     pub lock_boundary: bool,
+    /// Order slack `S ≥ 1` (module docs, "Strategy"): a candidate whose exact key is
+    /// at most `S ×` the next queued key is removed at once rather than queued again.
+    /// `1` is the exact order (cheapest removal first). Default
+    /// [`DEFAULT_ORDER_SLACK`]; values below 1 (or NaN) count as 1.
+    pub order_slack: f64,
+    /// Deferred re-keying (module docs, "Strategy"): `Some(p)` (`p ≥ 1`) leaves a
+    /// loop point of a removal in the queue at its previous key divided by `p`, and
+    /// evaluates its changed fan only when that entry comes out (`1`: the previous
+    /// key). Inexact: a point whose key fell waits. `None` (default): every loop
+    /// point is evaluated again at once, as the exact order needs.
+    pub defer_neighbours: Option<f64>,
     /// When to stop.
     pub stop: StopRule,
 }
@@ -159,6 +181,8 @@ impl Default for VertexRemovalOptions {
             feature_angle: DEFAULT_FEATURE_ANGLE,
             keep_corners: false,
             lock_boundary: false,
+            order_slack: DEFAULT_ORDER_SLACK,
+            defer_neighbours: None,
             stop: StopRule::default(),
         }
     }
@@ -451,6 +475,27 @@ pub struct VertexRemoval {
     away: Vec<bool>,
     facing_from: f64,
     facing_tier: f64,
+    /// Per point: the key bits it was last queued with (0 when refused; the plain
+    /// key for a removal queued behind the facing tier), for deferred re-keying.
+    queued: Vec<u32>,
+}
+
+/// The queue key bits of `slack ×` the key with bits `bits` (`bits` itself when
+/// `slack` is 1).
+fn slack_bits(bits: u32, slack: f64) -> u32 {
+    if slack == 1.0 {
+        return bits;
+    }
+    Item::default()
+        .with_cost(f64::from(f32::from_bits(bits)) * slack)
+        .cost_bits
+}
+
+/// Whether two triangles with (unnormalised) normals `n0` and `n1` meet at a
+/// dihedral angle whose cosine is below `cos_feature`.
+#[inline]
+fn is_crease(n0: [f64; 3], n1: [f64; 3], cos_feature: f64) -> bool {
+    dot(n0, n1) < cos_feature * (dot(n0, n0) * dot(n1, n1)).sqrt()
 }
 
 #[inline]
@@ -543,6 +588,7 @@ impl VertexRemoval {
             // Above every plain key (a distance within the model, or a sum of a few).
             facing_tier: 16.0 * surface.diagonal() + 1.0,
             facing_from: FACING_FROM * surface.diagonal(),
+            queued: vec![0; np],
             pt,
             live: tri.len(),
             tri,
@@ -827,15 +873,12 @@ impl VertexRemoval {
             let (f0, f1) = (&plan.ring[i0], &plan.ring[i]);
             let is_seam =
                 plan.left[i] != plan.right[i] || f0.wedge[0] != f1.wedge[0] || f0.group != f1.group;
-            let n0 = plan.normal[i0];
-            let n1 = plan.normal[i];
-            let crease = dot(n0, n1) < self.cos_feature * (dot(n0, n0) * dot(n1, n1)).sqrt();
             if is_seam {
                 if ns < 2 {
                     seams[ns] = i;
                 }
                 ns += 1;
-            } else if crease {
+            } else if is_crease(plan.normal[i0], plan.normal[i], self.cos_feature) {
                 if nc < 2 {
                     creases[nc] = i;
                 }
@@ -934,7 +977,8 @@ impl VertexRemoval {
             let a = norm(n);
             area_n = add(area_n, n);
             area_sum += a;
-            let c = scale(add(self.plan.pos[i], self.plan.pos[(i + 1) % m]), 1.0 / 3.0);
+            let j = if i + 1 == m { 0 } else { i + 1 };
+            let c = scale(add(self.plan.pos[i], self.plan.pos[j]), 1.0 / 3.0);
             base = add(base, scale(c, a));
         }
         if area_sum <= self.area_eps {
@@ -1048,7 +1092,7 @@ impl VertexRemoval {
                     let mut i = from;
                     while i != to {
                         n = add(n, self.plan.normal[i]);
-                        i = (i + 1) % m;
+                        i = if i + 1 == m { 0 } else { i + 1 };
                     }
                     n
                 };
@@ -1113,7 +1157,7 @@ impl VertexRemoval {
             if i == r.last {
                 break;
             }
-            i = (i + 1) % m;
+            i = if i + 1 == m { 0 } else { i + 1 };
         }
         plan.stack.push((0, plan.polys.len() as u32));
         let n = r.normal;
@@ -1192,7 +1236,8 @@ impl VertexRemoval {
                 }
                 for e in 0..3 {
                     let (x, y) = (c[e] as usize, c[(e + 1) % 3] as usize);
-                    if (x + 1) % m == y && x < plan.origin.len() && dot(tn, plan.origin[x]) <= 0.0 {
+                    let next = if x + 1 == m { 0 } else { x + 1 };
+                    if next == y && x < plan.origin.len() && dot(tn, plan.origin[x]) <= 0.0 {
                         return Err(Refusal::Flip);
                     }
                 }
@@ -1376,7 +1421,7 @@ impl VertexRemoval {
             if i == r.last {
                 break;
             }
-            i = (i + 1) % m;
+            i = if i + 1 == m { 0 } else { i + 1 };
         }
         gap
     }
@@ -1677,20 +1722,25 @@ impl VertexRemoval {
             cost_bits: 0,
         };
         if let Err(r) = self.evaluate_bound(v) {
+            self.queued[v as usize] = 0;
             self.count(r);
             return;
         }
         let bound = item.with_cost(self.key());
         if bound.cost_bits >= plan_below {
+            self.queued[v as usize] = bound.cost_bits;
             heap.push(bound);
             return;
         }
         if let Err(r) = self.evaluate_plan(false) {
+            self.queued[v as usize] = 0;
             self.count(r);
             return;
         }
         self.keep_plan(v);
-        heap.push(Item { b: 1, ..item }.with_cost(self.key()));
+        let exact = Item { b: 1, ..item }.with_cost(self.key());
+        self.queued[v as usize] = exact.cost_bits;
+        heap.push(exact);
     }
 
     /// Removes points, cheapest first, until the stop rule holds or nothing can be
@@ -1701,6 +1751,16 @@ impl VertexRemoval {
         let stop = self.options.stop;
         let target = stop.target_triangles;
         let max_error = stop.max_error.unwrap_or(f64::INFINITY);
+        let slack = if self.options.order_slack > 1.0 {
+            self.options.order_slack
+        } else {
+            1.0
+        };
+        // Deferred re-keying divides a point's previous key by this.
+        let defer = self
+            .options
+            .defer_neighbours
+            .map(|p| if p > 1.0 { p } else { 1.0 });
         observer.started(self.live, target);
         let mut outcome = Outcome {
             stop_reason: StopReason::NoLegalCollapse,
@@ -1750,15 +1810,37 @@ impl VertexRemoval {
             // (below) and invalidated by a neighbour's removal before they come
             // back, so the checks are left to the plans that are used. An entry
             // with its exact key (`b = 1`) has its plan kept.
-            let mode = if item.b >= 1 && self.restore_plan(v) {
+            let mode = if (item.b == 1 || item.b == 2) && self.restore_plan(v) {
                 Mode::Geometry
             } else {
-                let mode = if item.b == 0 {
+                let mode = if item.b == 0 || item.b == 3 {
                     Mode::Geometry
                 } else {
                     Mode::Full
                 };
-                if let Err(r) = self.evaluate(v, mode) {
+                let planned = if item.b == 3 {
+                    // A deferred point (its fan changed since its key): bound it now,
+                    // and queue the bound unless it is still due.
+                    match self.evaluate_bound(v) {
+                        Ok(()) => {
+                            let bound = Item { b: 0, ..item }.with_cost(self.key());
+                            if heap
+                                .peek_cost_bits()
+                                .is_some_and(|c| slack_bits(c, slack) < bound.cost_bits)
+                            {
+                                self.queued[v as usize] = bound.cost_bits;
+                                heap.push(bound);
+                                continue;
+                            }
+                            self.evaluate_plan(false)
+                        }
+                        Err(r) => Err(r),
+                    }
+                } else {
+                    self.evaluate(v, mode)
+                };
+                if let Err(r) = planned {
+                    self.queued[v as usize] = 0;
                     self.count(r);
                     continue;
                 }
@@ -1767,9 +1849,12 @@ impl VertexRemoval {
                 // with the exact key (best-first stays exact) and keep the plan.
                 let exact = Item { b: 1, ..item }.with_cost(self.key());
                 if exact.cost_bits > item.cost_bits
-                    && heap.peek_cost_bits().is_some_and(|c| c < exact.cost_bits)
+                    && heap
+                        .peek_cost_bits()
+                        .is_some_and(|c| slack_bits(c, slack) < exact.cost_bits)
                 {
                     self.keep_plan(v);
+                    self.queued[v as usize] = exact.cost_bits;
                     heap.push(exact);
                     continue;
                 }
@@ -1782,17 +1867,22 @@ impl VertexRemoval {
                         // A planned diagonal is an edge already: plan with every
                         // check, and compare the new key again.
                         if let Err(r) = self.evaluate(v, Mode::Full) {
+                            self.queued[v as usize] = 0;
                             self.count(r);
                             continue;
                         }
                         let exact = Item { b: 1, ..item }.with_cost(self.key());
-                        if heap.peek_cost_bits().is_some_and(|c| c < exact.cost_bits) {
+                        if heap
+                            .peek_cost_bits()
+                            .is_some_and(|c| slack_bits(c, slack) < exact.cost_bits)
+                        {
                             self.keep_plan(v);
                             heap.push(exact);
                             continue;
                         }
                     }
                     Err(r) => {
+                        self.queued[v as usize] = 0;
                         self.count(r);
                         continue;
                     }
@@ -1808,12 +1898,14 @@ impl VertexRemoval {
                     && heap.peek_cost_bits().is_some_and(|c| c < last.cost_bits)
                 {
                     self.keep_plan(v);
+                    self.queued[v as usize] = Item::default().with_cost(self.key()).cost_bits;
                     heap.push(last);
                     continue;
                 }
             }
             if self.plan.cost > max_error {
                 self.rejections.max_error += 1;
+                self.queued[v as usize] = 0;
                 continue;
             }
             outcome.max_error = outcome.max_error.max(self.plan.cost);
@@ -1827,8 +1919,25 @@ impl VertexRemoval {
             // Loop points whose bound is below every queued key are planned at once
             // (they would be next out of the queue), sparing a second classification.
             let next = heap.peek_cost_bits().unwrap_or(u32::MAX);
-            for &q in &loop_pts {
-                self.push(&mut heap, q, next);
+            if let Some(defer) = defer {
+                for &q in &loop_pts {
+                    let qi = q as usize;
+                    let prov = slack_bits(self.queued[qi], 1.0 / defer);
+                    if prov < next || self.pt[qi].len == 0 {
+                        self.push(&mut heap, q, next);
+                    } else {
+                        heap.push(Item {
+                            a: q,
+                            b: 3,
+                            stamp: self.pt[qi].version,
+                            cost_bits: prov,
+                        });
+                    }
+                }
+            } else {
+                for &q in &loop_pts {
+                    self.push(&mut heap, q, next);
+                }
             }
         }
         observer.progress(self.live);

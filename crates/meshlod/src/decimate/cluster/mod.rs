@@ -1768,19 +1768,33 @@ fn edge_counts(triangles: &[[u32; 3]], vertices: usize) -> EdgeCounts {
         start[v + 1] += start[v];
     }
     let mut fill = start.clone();
-    // Each side: (larger end, corner of the smaller end, corner of the larger end),
-    // corners numbered `3t + k`, so the order by corner is the order by triangle.
-    let mut bucketed = vec![(0u32, 0u32, 0u32); 3 * triangles.len()];
+    // Each side as one sortable key: its larger end (high 32 bits), then the corner
+    // `3t + k` of its smaller end and one bit telling whether the larger end's corner
+    // follows it in the triangle (`k + 1`) or precedes it (`k + 2`, mod 3); the order
+    // by corner is the order by triangle. (`3t` stays below 2³¹: the corners are
+    // `u32` and a mesh has fewer than 2³¹/3 triangles in memory.)
+    let mut bucketed = vec![0u64; 3 * triangles.len()];
     for (t, tri) in triangles.iter().enumerate() {
         for k in 0..3 {
-            let k1 = (k + 1) % 3;
+            let k1 = if k == 2 { 0 } else { k + 1 };
             let (a, b) = (tri[k], tri[k1]);
-            let (ca, cb) = ((3 * t + k) as u32, (3 * t + k1) as u32);
-            let slot = &mut fill[a.min(b) as usize];
-            bucketed[*slot as usize] = if a < b { (b, ca, cb) } else { (a, cb, ca) };
+            let (small, key) = if a < b {
+                (a, (u64::from(b) << 32) | (((3 * t + k) as u64) << 1) | 1)
+            } else {
+                (b, (u64::from(a) << 32) | (((3 * t + k1) as u64) << 1))
+            };
+            let slot = &mut fill[small as usize];
+            bucketed[*slot as usize] = key;
             *slot += 1;
         }
     }
+    // The corners (smaller end, larger end) of a side's key.
+    let corners = |key: u64| -> (u32, u32) {
+        let cs = (key as u32) >> 1;
+        let k = cs % 3;
+        let step = if key & 1 == 1 { 1 } else { 2 };
+        (cs, cs - k + (k + step) % 3)
+    };
     let mut parent: Vec<u32> = (0..3 * triangles.len() as u32).collect();
     fn find(parent: &mut [u32], mut x: u32) -> u32 {
         while parent[x as usize] != x {
@@ -1807,9 +1821,9 @@ fn edge_counts(triangles: &[[u32; 3]], vertices: usize) -> EdgeCounts {
         bucket.sort_unstable();
         let mut i = 0;
         while i < bucket.len() {
-            let b = bucket[i].0;
+            let b = (bucket[i] >> 32) as u32;
             let mut j = i + 1;
-            while j < bucket.len() && bucket[j].0 == b {
+            while j < bucket.len() && (bucket[j] >> 32) as u32 == b {
                 j += 1;
             }
             match j - i {
@@ -1821,10 +1835,13 @@ fn edge_counts(triangles: &[[u32; 3]], vertices: usize) -> EdgeCounts {
                     bad[b as usize] = true;
                 }
             }
-            let (_, c0a, c0b) = bucket[i];
-            for &(_, ca, cb) in &bucket[i + 1..j] {
-                union(&mut parent, c0a, ca);
-                union(&mut parent, c0b, cb);
+            if j - i > 1 {
+                let (c0a, c0b) = corners(bucket[i]);
+                for &key in &bucket[i + 1..j] {
+                    let (ca, cb) = corners(key);
+                    union(&mut parent, c0a, ca);
+                    union(&mut parent, c0b, cb);
+                }
             }
             i = j;
         }
@@ -1832,8 +1849,9 @@ fn edge_counts(triangles: &[[u32; 3]], vertices: usize) -> EdgeCounts {
     let mut fans = vec![0u32; vertices];
     for (t, tri) in triangles.iter().enumerate() {
         for (k, &v) in tri.iter().enumerate() {
+            // A root of the union–find is its own parent: no search needed.
             let c = (3 * t + k) as u32;
-            if find(&mut parent, c) == c {
+            if parent[c as usize] == c {
                 fans[v as usize] += 1;
             }
         }

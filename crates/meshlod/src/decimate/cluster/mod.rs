@@ -1750,11 +1750,11 @@ impl EdgeCounts {
 /// Boundary and non-manifold edges and non-manifold vertices of `triangles` over
 /// `vertices` points, as [`crate::mesh::stats::TopologyStats`] counts them, for
 /// triangles with three distinct points and no two over the same points (the
-/// output's invariants). Linear in the output size (plus sorts of each vertex's
-/// few edges): the `3t` edge sides are bucketed by their smaller end and sorted by
-/// the other, the sides of one edge give its valence, and the triangle corners at
-/// both ends of an edge are joined (union–find over corners), so a vertex's fans are
-/// its corners that remain roots.
+/// output's invariants). Linear in the output size: the `3t` edge sides are
+/// bucketed by their smaller end (a counting sort) and grouped by the other end
+/// within a bucket (a table indexed by that end), the sides of one edge give its
+/// valence, and the triangle corners at both ends of an edge are joined
+/// (union–find over corners), so a vertex's fans are its corners that remain roots.
 fn edge_counts(triangles: &[[u32; 3]], vertices: usize) -> EdgeCounts {
     // Counting sort of the sides by smaller end, then each bucket by (larger end,
     // triangle).
@@ -1768,19 +1768,33 @@ fn edge_counts(triangles: &[[u32; 3]], vertices: usize) -> EdgeCounts {
         start[v + 1] += start[v];
     }
     let mut fill = start.clone();
-    // Each side: (larger end, corner of the smaller end, corner of the larger end),
-    // corners numbered `3t + k`, so the order by corner is the order by triangle.
-    let mut bucketed = vec![(0u32, 0u32, 0u32); 3 * triangles.len()];
+    // Each side as one key: its larger end (high 32 bits), then the corner `3t + k`
+    // of its smaller end and one bit telling whether the larger end's corner follows
+    // it in the triangle (`k + 1`) or precedes it (`k + 2`, mod 3). (`3t` stays
+    // below 2³¹: the corners are `u32` and a mesh has fewer than 2³¹/3 triangles in
+    // memory.)
+    let mut bucketed = vec![0u64; 3 * triangles.len()];
     for (t, tri) in triangles.iter().enumerate() {
         for k in 0..3 {
-            let k1 = (k + 1) % 3;
+            let k1 = if k == 2 { 0 } else { k + 1 };
             let (a, b) = (tri[k], tri[k1]);
-            let (ca, cb) = ((3 * t + k) as u32, (3 * t + k1) as u32);
-            let slot = &mut fill[a.min(b) as usize];
-            bucketed[*slot as usize] = if a < b { (b, ca, cb) } else { (a, cb, ca) };
+            let (small, key) = if a < b {
+                (a, (u64::from(b) << 32) | (((3 * t + k) as u64) << 1) | 1)
+            } else {
+                (b, (u64::from(a) << 32) | (((3 * t + k1) as u64) << 1))
+            };
+            let slot = &mut fill[small as usize];
+            bucketed[*slot as usize] = key;
             *slot += 1;
         }
     }
+    // The corners (smaller end, larger end) of a side's key.
+    let corners = |key: u64| -> (u32, u32) {
+        let cs = (key as u32) >> 1;
+        let k = cs % 3;
+        let step = if key & 1 == 1 { 1 } else { 2 };
+        (cs, cs - k + (k + step) % 3)
+    };
     let mut parent: Vec<u32> = (0..3 * triangles.len() as u32).collect();
     fn find(parent: &mut [u32], mut x: u32) -> u32 {
         while parent[x as usize] != x {
@@ -1802,38 +1816,48 @@ fn edge_counts(triangles: &[[u32; 3]], vertices: usize) -> EdgeCounts {
         non_manifold_vertices: 0,
         boundary_edges: 0,
     };
+    // Per larger end `b` while the bucket of `a` is scanned: the bucket that last
+    // saw it (`a + 1`; 0 = none), the key of the edge's first side and the number of
+    // its sides. No sort: the later sides of an edge are joined to its first one.
+    let mut seen = vec![0u32; vertices];
+    let mut first = vec![0u64; vertices];
+    let mut sides = vec![0u32; vertices];
     for a in 0..vertices {
-        let bucket = &mut bucketed[start[a] as usize..start[a + 1] as usize];
-        bucket.sort_unstable();
-        let mut i = 0;
-        while i < bucket.len() {
-            let b = bucket[i].0;
-            let mut j = i + 1;
-            while j < bucket.len() && bucket[j].0 == b {
-                j += 1;
-            }
-            match j - i {
-                1 => counts.boundary_edges += 1,
-                2 => {}
-                _ => {
-                    counts.non_manifold_edges += 1;
-                    bad[a] = true;
-                    bad[b as usize] = true;
-                }
-            }
-            let (_, c0a, c0b) = bucket[i];
-            for &(_, ca, cb) in &bucket[i + 1..j] {
+        let bucket = &bucketed[start[a] as usize..start[a + 1] as usize];
+        let stamp = a as u32 + 1;
+        for &key in bucket {
+            let b = (key >> 32) as usize;
+            if seen[b] != stamp {
+                seen[b] = stamp;
+                first[b] = key;
+                sides[b] = 1;
+            } else {
+                sides[b] += 1;
+                let ((c0a, c0b), (ca, cb)) = (corners(first[b]), corners(key));
                 union(&mut parent, c0a, ca);
                 union(&mut parent, c0b, cb);
             }
-            i = j;
+        }
+        // Each edge once: its count is taken (reset to 0) at its first side.
+        for &key in bucket {
+            let b = (key >> 32) as usize;
+            match std::mem::take(&mut sides[b]) {
+                0 | 2 => {}
+                1 => counts.boundary_edges += 1,
+                _ => {
+                    counts.non_manifold_edges += 1;
+                    bad[a] = true;
+                    bad[b] = true;
+                }
+            }
         }
     }
     let mut fans = vec![0u32; vertices];
     for (t, tri) in triangles.iter().enumerate() {
         for (k, &v) in tri.iter().enumerate() {
+            // A root of the union–find is its own parent: no search needed.
             let c = (3 * t + k) as u32;
-            if find(&mut parent, c) == c {
+            if parent[c as usize] == c {
                 fans[v as usize] += 1;
             }
         }

@@ -863,28 +863,27 @@ const PROJECTED_DENSITY: f64 = 1.74;
 /// multiple of `P/ε²` whatever the surface's orientation.
 #[inline]
 fn projected_area_of(t: &[[f32; 3]; 3]) -> f64 {
-    let p = t.map(|c| c.map(f64::from));
-    let e1 = [p[1][0] - p[0][0], p[1][1] - p[0][1], p[1][2] - p[0][2]];
-    let e2 = [p[2][0] - p[0][0], p[2][1] - p[0][1], p[2][2] - p[0][2]];
-    let c = [
-        e1[1] * e2[2] - e1[2] * e2[1],
-        e1[2] * e2[0] - e1[0] * e2[2],
-        e1[0] * e2[1] - e1[1] * e2[0],
-    ];
+    let c = edge_cross(t);
     0.5 * (c[0].abs() + c[1].abs() + c[2].abs())
 }
 
 #[inline]
 fn area_of(t: &[[f32; 3]; 3]) -> f64 {
+    let c = edge_cross(t);
+    0.5 * (c[0] * c[0] + c[1] * c[1] + c[2] * c[2]).sqrt()
+}
+
+/// The cross product of the triangle's edges from its first corner, in `f64`.
+#[inline]
+fn edge_cross(t: &[[f32; 3]; 3]) -> [f64; 3] {
     let p = t.map(|c| c.map(f64::from));
     let e1 = [p[1][0] - p[0][0], p[1][1] - p[0][1], p[1][2] - p[0][2]];
     let e2 = [p[2][0] - p[0][0], p[2][1] - p[0][1], p[2][2] - p[0][2]];
-    let c = [
+    [
         e1[1] * e2[2] - e1[2] * e2[1],
         e1[2] * e2[0] - e1[0] * e2[2],
         e1[0] * e2[1] - e1[1] * e2[0],
-    ];
-    0.5 * (c[0] * c[0] + c[1] * c[1] + c[2] * c[2]).sqrt()
+    ]
 }
 
 /// The total projected area ([`projected_area_of`]) of `n` triangles estimated from

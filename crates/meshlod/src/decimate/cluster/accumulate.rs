@@ -388,8 +388,8 @@ mod tests {
     /// A crease (triangles in the planes z = 0.3 and y = 0.6, rank 2, so the plain
     /// solve refuses): the regularised fallback lands on the crease line to within
     /// 1% of the mean's distance from it (λ = 10⁻³·tr(A) over the smaller
-    /// eigenvalue), and along the line (the flat direction)
-    /// keeps the mean's x exactly.
+    /// eigenvalue), and along the line (the flat direction) keeps the mean's x
+    /// exactly.
     #[test]
     fn crease_cell_lands_on_the_crease() {
         let mut acc = [Acc::default()];

@@ -305,198 +305,57 @@ pub(crate) fn representative(
     let inside = |x: &[f64; 3]| x.iter().all(|&v| (0.0..=cell).contains(&v));
     let x = match q.solve(mean, DEFAULT_CONDITION) {
         Some(x) if inside(&x) => x,
-        _ => clamp(pseudo_inverse_minimum(q, mean)),
+        _ => clamp(regularised_minimum(q, mean)),
     };
     let err = q.distance(q.evaluate(x));
     (x, Some(err))
 }
 
-/// Lindstrom's rank-deficient minimiser: `x = c − A⁺ (A c + b)`, with the
-/// pseudo-inverse `A⁺` dropping eigenvalues below `10⁻³` of the largest, so that
-/// along flat directions the point stays at `c` (the cell's mean).
-fn pseudo_inverse_minimum(q: &Quadric, c: [f64; 3]) -> [f64; 3] {
+/// The regularisation weight of [`regularised_minimum`], relative to `tr(A)`.
+pub(crate) const REGULARISATION: f64 = 1e-3;
+
+/// The fallback of an ill-conditioned cell: the minimiser of `Δ(x) + λ‖x − c‖²`
+/// with `λ = 10⁻³·tr(A)` (a Tikhonov-regularised solve toward the cell's mean `c`):
+/// `(A + λI) y = −(A c + b)`, `x = c + y`, one 3×3 solve by cofactors, always
+/// positive definite.
+///
+/// Along an eigenvector of `A` with eigenvalue `l` the point takes the fraction
+/// `l / (l + λ)` of the full step: all of it where `A` is well determined, none
+/// where it is flat. It is the smooth form of Lindstrom's pseudo-inverse rule
+/// (which drops eigenvalues below 10⁻³ of the largest), without eigenvectors.
+/// Returns `c` when the quadric is zero or not finite.
+fn regularised_minimum(q: &Quadric, c: [f64; 3]) -> [f64; 3] {
     let m = &q.m;
-    let a = [[m[0], m[1], m[2]], [m[1], m[4], m[5]], [m[2], m[5], m[7]]];
-    let r: [f64; 3] = std::array::from_fn(|i| {
-        a[i][0] * c[0] + a[i][1] * c[1] + a[i][2] * c[2] + [m[3], m[6], m[8]][i]
-    });
-    if let Some(x) = closed_form_minimum(&a, r, c) {
-        return x;
-    }
-    let (values, vectors) = eigen_symmetric(a);
-    let top = values.iter().fold(0.0f64, |acc, &v| acc.max(v.abs()));
-    if !(top > 0.0 && top.is_finite()) {
+    let l = REGULARISATION * (m[0] + m[4] + m[7]);
+    let (a00, a01, a02) = (m[0] + l, m[1], m[2]);
+    let (a11, a12, a22) = (m[4] + l, m[5], m[7] + l);
+    let c00 = a11 * a22 - a12 * a12;
+    let c01 = a02 * a12 - a01 * a22;
+    let c02 = a01 * a12 - a02 * a11;
+    let det = a00 * c00 + a01 * c01 + a02 * c02;
+    if !(det > 0.0 && det.is_finite()) {
         return c;
     }
-    let mut x = c;
-    for (i, &l) in values.iter().enumerate() {
-        if l > 1e-3 * top {
-            let v = [vectors[0][i], vectors[1][i], vectors[2][i]];
-            let s = (v[0] * r[0] + v[1] * r[1] + v[2] * r[2]) / l;
-            for k in 0..3 {
-                x[k] -= s * v[k];
-            }
-        }
-    }
+    let c11 = a00 * a22 - a02 * a02;
+    let c12 = a01 * a02 - a00 * a12;
+    let c22 = a00 * a11 - a01 * a01;
+    // The residual at the mean (the quadric's own A, not the regularised one).
+    let r = [
+        m[0] * c[0] + m[1] * c[1] + m[2] * c[2] + m[3],
+        m[1] * c[0] + m[4] * c[1] + m[5] * c[2] + m[6],
+        m[2] * c[0] + m[5] * c[1] + m[7] * c[2] + m[8],
+    ];
+    let inv = 1.0 / det;
+    let x = [
+        c[0] - (c00 * r[0] + c01 * r[1] + c02 * r[2]) * inv,
+        c[1] - (c01 * r[0] + c11 * r[1] + c12 * r[2]) * inv,
+        c[2] - (c02 * r[0] + c12 * r[1] + c22 * r[2]) * inv,
+    ];
     if x.iter().all(|v| v.is_finite()) {
         x
     } else {
         c
     }
-}
-
-#[inline]
-fn dot(u: [f64; 3], v: [f64; 3]) -> f64 {
-    u[0] * v[0] + u[1] * v[1] + u[2] * v[2]
-}
-
-#[inline]
-fn cross3(u: [f64; 3], v: [f64; 3]) -> [f64; 3] {
-    [
-        u[1] * v[2] - u[2] * v[1],
-        u[2] * v[0] - u[0] * v[2],
-        u[0] * v[1] - u[1] * v[0],
-    ]
-}
-
-/// The eigenvalues of the symmetric `a`, largest first, in closed form (the
-/// trigonometric solution of the characteristic cubic, Smith 1961); absolute error
-/// about `10⁻¹⁵` of the largest.
-fn eigenvalues(a: &[[f64; 3]; 3]) -> Option<[f64; 3]> {
-    let p1 = a[0][1] * a[0][1] + a[0][2] * a[0][2] + a[1][2] * a[1][2];
-    let q = (a[0][0] + a[1][1] + a[2][2]) / 3.0;
-    let d = [a[0][0] - q, a[1][1] - q, a[2][2] - q];
-    let p2 = d[0] * d[0] + d[1] * d[1] + d[2] * d[2] + 2.0 * p1;
-    if !(p2.is_finite() && q.is_finite()) {
-        return None;
-    }
-    if p2 == 0.0 {
-        return Some([q; 3]);
-    }
-    let p = (p2 / 6.0).sqrt();
-    let b = [
-        [d[0] / p, a[0][1] / p, a[0][2] / p],
-        [a[1][0] / p, d[1] / p, a[1][2] / p],
-        [a[2][0] / p, a[2][1] / p, d[2] / p],
-    ];
-    let r = (0.5 * dot(b[0], cross3(b[1], b[2]))).clamp(-1.0, 1.0);
-    let phi = r.acos() / 3.0;
-    let l1 = q + 2.0 * p * phi.cos();
-    let l3 = q + 2.0 * p * (phi + 2.0 * std::f64::consts::FRAC_PI_3).cos();
-    Some([l1, 3.0 * q - l1 - l3, l3])
-}
-
-/// A unit vector spanning the null space of `a − λ I` for a simple eigenvalue `λ`:
-/// the largest cross product of two of its rows.
-fn eigenvector(a: &[[f64; 3]; 3], l: f64) -> Option<[f64; 3]> {
-    let row =
-        |i: usize| -> [f64; 3] { std::array::from_fn(|j| a[i][j] - if i == j { l } else { 0.0 }) };
-    let (r0, r1, r2) = (row(0), row(1), row(2));
-    let mut best = cross3(r0, r1);
-    for x in [cross3(r0, r2), cross3(r1, r2)] {
-        if dot(x, x) > dot(best, best) {
-            best = x;
-        }
-    }
-    let n = dot(best, best).sqrt();
-    (n > 0.0 && n.is_finite()).then(|| best.map(|x| x / n))
-}
-
-/// `m⁻¹ v` by Cramer's rule (`None` for a zero or non-finite determinant).
-fn solve3(m: &[[f64; 3]; 3], v: [f64; 3]) -> Option<[f64; 3]> {
-    let det = dot(m[0], cross3(m[1], m[2]));
-    if !(det != 0.0 && det.is_finite()) {
-        return None;
-    }
-    let col = |i: usize| -> [f64; 3] { [m[0][i], m[1][i], m[2][i]] };
-    let (c0, c1, c2) = (col(0), col(1), col(2));
-    Some([
-        dot(v, cross3(c1, c2)) / det,
-        dot(c0, cross3(v, c2)) / det,
-        dot(c0, cross3(c1, v)) / det,
-    ])
-}
-
-/// [`pseudo_inverse_minimum`] without iterations, `x = c − A⁺ r`: eigenvalues in
-/// closed form, then
-/// - all three above the threshold: `A⁻¹ r`;
-/// - two: with `v₃` the small eigenvector, `A⁺ r` solves
-///   `(A + (λ₁ − λ₃) v₃v₃ᵀ) y = r − v₃ (v₃·r)` (a system with eigenvalues λ₁, λ₂,
-///   λ₁);
-/// - one (a flat cell, the common case): `v₁ (v₁·r) / λ₁`.
-///
-/// `None` when an eigenvector would be ill-determined (two eigenvalues within 1%
-/// of each other across the threshold) or on non-finite values: the caller then
-/// uses the Jacobi decomposition.
-fn closed_form_minimum(a: &[[f64; 3]; 3], r: [f64; 3], c: [f64; 3]) -> Option<[f64; 3]> {
-    let [l1, l2, l3] = eigenvalues(a)?;
-    if !(l1 > 0.0 && l1.is_finite()) {
-        return None;
-    }
-    let t = 1e-3 * l1;
-    let y = if l3 > t {
-        solve3(a, r)?
-    } else if l2 > t {
-        if l2 - l3 < 1e-2 * l2 {
-            return None;
-        }
-        let v3 = eigenvector(a, l3)?;
-        let k = l1 - l3;
-        let m: [[f64; 3]; 3] =
-            std::array::from_fn(|i| std::array::from_fn(|j| a[i][j] + k * v3[i] * v3[j]));
-        let vr = dot(v3, r);
-        solve3(&m, std::array::from_fn(|i| r[i] - vr * v3[i]))?
-    } else {
-        let v1 = eigenvector(a, l1)?;
-        let s = dot(v1, r) / l1;
-        v1.map(|x| s * x)
-    };
-    let x = [c[0] - y[0], c[1] - y[1], c[2] - y[2]];
-    x.iter().all(|v| v.is_finite()).then_some(x)
-}
-
-/// Eigenvalues and eigenvectors (columns of the returned matrix) of a symmetric 3×3
-/// matrix by cyclic Jacobi rotations.
-pub(crate) fn eigen_symmetric(mut a: [[f64; 3]; 3]) -> ([f64; 3], [[f64; 3]; 3]) {
-    let mut v = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
-    for _sweep in 0..32 {
-        let off = a[0][1] * a[0][1] + a[0][2] * a[0][2] + a[1][2] * a[1][2];
-        let diag = a[0][0] * a[0][0] + a[1][1] * a[1][1] + a[2][2] * a[2][2];
-        if off <= 1e-30 * diag || off == 0.0 {
-            break;
-        }
-        for (p, qq) in [(0usize, 1usize), (0, 2), (1, 2)] {
-            let apq = a[p][qq];
-            if apq == 0.0 {
-                continue;
-            }
-            let theta = (a[qq][qq] - a[p][p]) / (2.0 * apq);
-            let t = theta.signum() / (theta.abs() + (theta * theta + 1.0).sqrt());
-            let t = if theta == 0.0 { 1.0 } else { t };
-            let c = 1.0 / (t * t + 1.0).sqrt();
-            let s = t * c;
-            // A ← Jᵀ A J for the rotation J in the (p, q) plane.
-            for k in 0..3 {
-                let akp = a[k][p];
-                let akq = a[k][qq];
-                a[k][p] = c * akp - s * akq;
-                a[k][qq] = s * akp + c * akq;
-            }
-            for k in 0..3 {
-                let apk = a[p][k];
-                let aqk = a[qq][k];
-                a[p][k] = c * apk - s * aqk;
-                a[qq][k] = s * apk + c * aqk;
-            }
-            for row in &mut v {
-                let vp = row[p];
-                let vq = row[qq];
-                row[p] = c * vp - s * vq;
-                row[qq] = s * vp + c * vq;
-            }
-        }
-    }
-    ([a[0][0], a[1][1], a[2][2]], v)
 }
 
 #[inline]
@@ -507,67 +366,6 @@ fn sub(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn jacobi_diagonalises() {
-        let a = [[4.0, 1.0, 2.0], [1.0, 3.0, 0.5], [2.0, 0.5, 5.0]];
-        let (l, v) = eigen_symmetric(a);
-        for i in 0..3 {
-            let x = [v[0][i], v[1][i], v[2][i]];
-            for r in 0..3 {
-                let ax = a[r][0] * x[0] + a[r][1] * x[1] + a[r][2] * x[2];
-                assert!((ax - l[i] * x[r]).abs() < 1e-9, "{ax} vs {}", l[i] * x[r]);
-            }
-        }
-        let trace: f64 = l.iter().sum();
-        assert!((trace - 12.0).abs() < 1e-9);
-    }
-
-    /// The closed form gives the Jacobi decomposition's point for one, two and
-    /// three eigenvalues above the threshold, and declines where an eigenvector is
-    /// ill-determined.
-    #[test]
-    fn closed_form_matches_jacobi() {
-        let n = [0.36f64, 0.48, 0.8];
-        let u = [0.8f64, -0.6, 0.0];
-        let w = cross3(n, u);
-        let r = [0.3, -0.2, 0.5];
-        let c = [0.1, 0.2, 0.3];
-        for (l2, l3, expect) in [
-            (0.0, 0.0, true),
-            (1e-4, 0.0, true),
-            (1e-4, 1e-5, true),
-            (0.05, 0.0, true),
-            (0.3, 1e-5, true),
-            (0.01, 2e-4, true),
-            (0.5, 0.2, true),
-            (1.0, 1.0, true),
-            (1.0005e-3, 0.9995e-3, false),
-        ] {
-            let a: [[f64; 3]; 3] = std::array::from_fn(|i| {
-                std::array::from_fn(|j| n[i] * n[j] + l2 * u[i] * u[j] + l3 * w[i] * w[j])
-            });
-            let fast = closed_form_minimum(&a, r, c);
-            assert_eq!(fast.is_some(), expect, "{l2} {l3}");
-            if let Some(x) = fast {
-                let (values, vectors) = eigen_symmetric(a);
-                let top = values.iter().fold(0.0f64, |m, &v| m.max(v));
-                let mut y = c;
-                for (i, &l) in values.iter().enumerate() {
-                    if l > 1e-3 * top {
-                        let v = [vectors[0][i], vectors[1][i], vectors[2][i]];
-                        let s = (v[0] * r[0] + v[1] * r[1] + v[2] * r[2]) / l;
-                        for k in 0..3 {
-                            y[k] -= s * v[k];
-                        }
-                    }
-                }
-                for k in 0..3 {
-                    assert!((x[k] - y[k]).abs() < 1e-8, "{l2} {l3}: {x:?} vs {y:?}");
-                }
-            }
-        }
-    }
 
     /// A flat cell (all triangles in the plane z = 0.3 of a unit cell): the quadric is
     /// rank 1, so the representative keeps the mean's x and y and lands on the plane.
@@ -585,6 +383,35 @@ mod tests {
             "{x:?}"
         );
         assert!(err.unwrap() < 1e-7, "{err:?}");
+    }
+
+    /// A crease (triangles in the planes z = 0.3 and y = 0.6, rank 2, so the plain
+    /// solve refuses): the regularised fallback lands on the crease line to within
+    /// 1% of the mean's distance from it (λ = 10⁻³·tr(A) over the smaller
+    /// eigenvalue), and along the line (the flat direction) keeps the mean's x
+    /// exactly.
+    #[test]
+    fn crease_cell_lands_on_the_crease() {
+        let mut acc = [Acc::default()];
+        let tris = [
+            [[0.1f32, 0.6, 0.3], [0.9, 0.6, 0.3], [0.5, 0.1, 0.3]],
+            [[0.2, 0.6, 0.3], [0.7, 0.6, 0.3], [0.4, 0.6, 0.9]],
+        ];
+        for tri in &tris {
+            let t = Prepared::new(tri, [0.0; 3]);
+            add_triangle::<true>(&mut acc, 0, [0; 3], &t, [t.area; 3]);
+        }
+        let q = local_quadric(&acc[0], [0.0; 3]);
+        let mean = acc[0].wsum.map(|x| x / acc[0].w);
+        assert!(q.solve(mean, DEFAULT_CONDITION).is_none());
+        let (x, err) = representative(&acc[0], [0.0; 3], 1.0, Representative::Quadric);
+        let (y, z) = (f64::from(0.6f32), f64::from(0.3f32));
+        let off = (mean[1] - y).abs().max((mean[2] - z).abs());
+        assert!(off > 0.05, "{mean:?}");
+        assert!((x[1] - y).abs() < 1e-2 * off, "{x:?}");
+        assert!((x[2] - z).abs() < 1e-2 * off, "{x:?}");
+        assert!((x[0] - mean[0]).abs() < 1e-12, "{x:?} vs {mean:?}");
+        assert!(err.unwrap() < 1e-2 * off, "{err:?}");
     }
 
     /// Three orthogonal planes meeting at (0.25, 0.5, 0.75): the corner is found.

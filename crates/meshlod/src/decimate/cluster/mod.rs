@@ -38,14 +38,13 @@
 //!   stream.
 //! - [`Representative::Quadric`] (default, Lindstrom 2000): the minimiser of the
 //!   cell's quadric, solved around the area-weighted mean; when the 3×3 system is
-//!   ill-conditioned or the solution leaves the cell, the rank-deficient minimiser
-//!   (pseudo-inverse keeping eigenvalues above 10⁻³ of the largest, so flat
-//!   directions stay at the mean), clamped into the cell. Its eigenvalues come in
-//!   closed form (Smith 1961, the trigonometric solution of the characteristic
-//!   cubic) and the eigenvector it needs (the top one of a flat cell, the small one
-//!   of a cell with two significant eigenvalues) from cross products of rows of
-//!   `A − λI`; cyclic Jacobi rotations only where that eigenvector is
-//!   ill-determined (two eigenvalues within 1% across the threshold).
+//!   ill-conditioned or the solution leaves the cell, the minimiser of the quadric
+//!   plus `λ‖x − mean‖²` with `λ = 10⁻³·tr(A)` (Tikhonov regularisation toward the
+//!   mean: one positive definite 3×3 solve by cofactors), clamped into the cell.
+//!   Along an eigenvector of `A` with eigenvalue `l` it takes `l/(l + λ)` of the
+//!   full step, so flat directions stay at the mean: the smooth form of Lindstrom's
+//!   pseudo-inverse rule (eigenvalues below 10⁻³ of the largest dropped), without
+//!   an eigendecomposition.
 //!
 //! Every representative lies in its cell, so no vertex moves farther than the cell
 //! diagonal `ε√3`.

@@ -83,6 +83,19 @@ impl Aabb {
             self.hi[k] = self.hi[k].max(v);
         }
     }
+    /// [`Self::grow`] with plain comparisons (the same result: a NaN coordinate is
+    /// skipped by both, and the bounds start infinite, never NaN).
+    #[inline(always)]
+    fn grow_fast(&mut self, p: [f32; 3]) {
+        for (k, &v) in p.iter().enumerate() {
+            if v < self.lo[k] {
+                self.lo[k] = v;
+            }
+            if v > self.hi[k] {
+                self.hi[k] = v;
+            }
+        }
+    }
     fn merge(&mut self, o: &Aabb) {
         for k in 0..3 {
             self.lo[k] = self.lo[k].min(o.lo[k]);
@@ -190,11 +203,14 @@ impl Bvh {
     #[must_use]
     pub fn build_morton(positions: &[[f32; 3]], triangles: &[[u32; 3]]) -> Self {
         let n = triangles.len();
-        let corners = corners_of(positions, triangles);
+        let corners = |t: &[u32; 3]| t.map(|i| positions[i as usize]);
         // Centroids (times 3) and their bounds.
-        let sums: Vec<[f32; 3]> = corners
+        let sums: Vec<[f32; 3]> = triangles
             .iter()
-            .map(|c| std::array::from_fn(|k| c[0][k] + c[1][k] + c[2][k]))
+            .map(|t| {
+                let c = corners(t);
+                std::array::from_fn(|k| c[0][k] + c[1][k] + c[2][k])
+            })
             .collect();
         let mut cb = Aabb::EMPTY;
         sums.iter().for_each(|&c| cb.grow(c));
@@ -210,11 +226,9 @@ impl Bvh {
             .iter()
             .enumerate()
             .map(|(t, c)| {
-                let q = |k: usize| -> u32 {
-                    let x = (c[k] - cb.lo[k]) * scale[k];
-                    // Out-of-range values clamp into the grid (NaN casts to 0).
-                    x.clamp(0.0, 1023.0) as u32
-                };
+                // Out-of-range values clamp into the grid: `as` saturates (negative
+                // and NaN give 0), the `min` caps at 1023.
+                let q = |k: usize| -> u32 { (((c[k] - cb.lo[k]) * scale[k]) as u32).min(1023) };
                 (u64::from(morton3(q(0), q(1), q(2))) << 32) | t as u64
             })
             .collect();
@@ -252,7 +266,10 @@ impl Bvh {
         }
         let order: Vec<u32> = keys.iter().map(|&k| k as u32).collect();
         drop(keys);
-        let tris: Vec<[[f32; 3]; 3]> = order.iter().map(|&t| corners[t as usize]).collect();
+        let tris: Vec<[[f32; 3]; 3]> = order
+            .iter()
+            .map(|&t| corners(&triangles[t as usize]))
+            .collect();
         // Bounds bottom-up: children always follow their parent.
         for ni in (0..nodes.len()).rev() {
             let nd = nodes[ni];
@@ -260,12 +277,19 @@ impl Bvh {
             if nd.count > 0 {
                 let s = nd.first as usize;
                 for t in &tris[s..s + nd.count as usize] {
-                    t.iter().for_each(|&p| b.grow(p));
+                    t.iter().for_each(|&p| b.grow_fast(p));
                 }
             } else if n > 0 {
                 let l = nd.first as usize;
                 for c in &nodes[l..l + 2] {
-                    b.merge(&Aabb { lo: c.lo, hi: c.hi });
+                    for k in 0..3 {
+                        if c.lo[k] < b.lo[k] {
+                            b.lo[k] = c.lo[k];
+                        }
+                        if c.hi[k] > b.hi[k] {
+                            b.hi[k] = c.hi[k];
+                        }
+                    }
                 }
             }
             nodes[ni].lo = b.lo;
@@ -495,6 +519,7 @@ fn corners_of(positions: &[[f32; 3]], triangles: &[[u32; 3]]) -> Vec<[[f32; 3]; 
 
 /// Turns node `ni` (range `start..end`) into an inner node whose two children, side
 /// by side at the end of `nodes`, get `start..mid` and `mid..end`, queued in `work`.
+#[inline]
 fn split_node(
     nodes: &mut Vec<Node>,
     work: &mut Vec<(usize, usize, usize)>,

@@ -375,11 +375,18 @@ fn try_swap(
             if after <= before {
                 continue;
             }
-            // Farther than allowed: a violation only if the old pair was its nearest.
-            let nearest = out_bvh
-                .closest(q, Some(t as u32))
-                .map_or(f64::INFINITY, |c| c.dist2.sqrt());
-            if before <= nearest * (1.0 + 1e-9) + 1e-12 * reach {
+            // Farther than allowed: a violation only if the old pair was its nearest,
+            // i.e. `before <= nearest * (1 + 1e-9) + 1e-12 * reach` for the output's
+            // nearest distance; the right side grows with the distance, so that is
+            // "no output triangle has its right side below `before`" (the first one
+            // found ends the search).
+            let slack = 1e-12 * reach;
+            if before.is_nan() || slack.is_nan() {
+                continue; // the comparison above is false then
+            }
+            if !out_bvh.any_near(q, Some(t as u32), |d2| {
+                d2.sqrt() * (1.0 + 1e-9) + slack < before
+            }) {
                 return false;
             }
         }

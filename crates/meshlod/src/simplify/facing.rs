@@ -86,6 +86,9 @@ fn dist_to_tri(p: V3, c: &[V3; 3]) -> f64 {
 struct Repair<'a> {
     input: &'a Mesh,
     bvh: Bvh,
+    /// For each input vertex, one input triangle that uses it (its *owner*; `u32::MAX`
+    /// for an unused vertex).
+    tri_at: Vec<u32>,
     /// Smallest twice-area (|cross|) an output triangle must have to count.
     min_area2: f64,
 }
@@ -134,13 +137,6 @@ pub(crate) fn repair(
     if out.triangles.is_empty() || input.triangles.is_empty() || diag.is_nan() || diag <= 0.0 {
         return stats;
     }
-    let r = Repair {
-        input,
-        bvh: Bvh::build_morton(&input.positions, &input.triangles),
-        min_area2: 1e-12 * diag * diag,
-    };
-    let corners_of =
-        |out: &Mesh, t: usize| out.triangles[t].map(|v| f64v(out.positions[v as usize]));
     // A start for each output triangle's query: an input triangle at the input
     // vertex its first corner descends from.
     let mut tri_at = vec![u32::MAX; input.positions.len()];
@@ -149,9 +145,20 @@ pub(crate) fn repair(
             tri_at[v as usize] = t as u32;
         }
     }
+    let r = Repair {
+        input,
+        bvh: Bvh::build_morton(&input.positions, &input.triangles),
+        tri_at,
+        min_area2: 1e-12 * diag * diag,
+    };
+    let corners_of =
+        |out: &Mesh, t: usize| out.triangles[t].map(|v| f64v(out.positions[v as usize]));
     let start = |out: &Mesh, t: usize| -> Option<u32> {
         let v = source?.get(out.triangles[t][0] as usize)?;
-        tri_at.get(*v as usize).copied().filter(|&x| x != u32::MAX)
+        r.tri_at
+            .get(*v as usize)
+            .copied()
+            .filter(|&x| x != u32::MAX)
     };
     let mut away = Vec::new();
     let mut g = 0.0f64;
@@ -335,7 +342,10 @@ fn try_swap(
         }
     }
     let inside = |q: V3| (0..3).all(|i| q[i] >= lo[i] && q[i] <= hi[i]);
-    let ok = r.bvh.for_each_in_box(lo, hi, |_, tri| {
+    let ok = r.bvh.for_each_in_box(lo, hi, |id, tri| {
+        // A vertex is shared by several input triangles: it is checked once, with
+        // its owner (which overlaps the box too, since the vertex is inside it).
+        let ids = r.input.triangles[id as usize];
         let v = tri.map(f64v);
         let mid = |i: usize, j: usize| {
             lerp3(
@@ -352,20 +362,31 @@ fn try_swap(
             mid(1, 2),
             mid(0, 2),
         ];
-        for q in pts {
-            if !inside(q) {
+        for (i, q) in pts.into_iter().enumerate() {
+            if (i < 3 && r.tri_at[ids[i] as usize] != id) || !inside(q) {
+                continue;
+            }
+            // `after <= max(before, reach)`, with `before` computed only when needed.
+            let after = dist_to_tri(q, &new[0]).min(dist_to_tri(q, &new[1]));
+            if after <= reach {
                 continue;
             }
             let before = dist_to_tri(q, &old[0]).min(dist_to_tri(q, &old[1]));
-            let after = dist_to_tri(q, &new[0]).min(dist_to_tri(q, &new[1]));
-            if after <= before.max(reach) {
+            if after <= before {
                 continue;
             }
-            // Farther than allowed: a violation only if the old pair was its nearest.
-            let nearest = out_bvh
-                .closest(q, Some(t as u32))
-                .map_or(f64::INFINITY, |c| c.dist2.sqrt());
-            if before <= nearest * (1.0 + 1e-9) + 1e-12 * reach {
+            // Farther than allowed: a violation only if the old pair was its nearest,
+            // i.e. `before <= nearest * (1 + 1e-9) + 1e-12 * reach` for the output's
+            // nearest distance; the right side grows with the distance, so that is
+            // "no output triangle has its right side below `before`" (the first one
+            // found ends the search).
+            let slack = 1e-12 * reach;
+            if before.is_nan() || slack.is_nan() {
+                continue; // the comparison above is false then
+            }
+            if !out_bvh.any_near(q, Some(t as u32), |d2| {
+                d2.sqrt() * (1.0 + 1e-9) + slack < before
+            }) {
                 return false;
             }
         }

@@ -77,6 +77,16 @@ pub struct SimplifyArgs {
     /// detail and lowers the maximum error on most meshes; 0 = uniform).
     #[arg(long, value_name = "A")]
     pub area_exponent: Option<f64>,
+    /// QEM: conditioning threshold of the optimal-placement solve (relative
+    /// determinant; below it the vertex goes to the best point on the edge).
+    /// Default 1e-7 (1e-6 before 2026-12-02).
+    #[arg(long, value_name = "C")]
+    pub solve_condition: Option<f64>,
+    /// QEM: displacement guard weight L (0 = off, default): a collapse whose old
+    /// points end up a distance e off the triangles it leaves ranks at least
+    /// L · area · e² (protects thin tips the plane quadric cannot see shortened).
+    #[arg(long, value_name = "L")]
+    pub displacement_guard: Option<f64>,
     /// Refuse collapses that turn a triangle's normal by more than DEG degrees.
     #[arg(long, value_name = "DEG")]
     pub max_normal_deviation: Option<f64>,
@@ -301,6 +311,12 @@ fn options(args: &SimplifyArgs) -> Result<SimplifyOptions> {
     }
     if let Some(a) = args.area_exponent {
         o = o.with_area_exponent(a);
+    }
+    if let Some(c) = args.solve_condition {
+        o = o.with_solve_condition(c);
+    }
+    if let Some(g) = args.displacement_guard {
+        o = o.with_displacement_guard(g);
     }
     if let Some(d) = args.max_normal_deviation {
         o = o.with_max_normal_deviation(d);

@@ -154,6 +154,15 @@ pub struct SimplifyOptions {
     /// Exponent α of QEM's triangle weights `area^α · mean_area^(1−α)`: `1` is
     /// area weighting, `0.5` keeps small triangles (detail) more. Default `1.0`.
     pub area_exponent: f64,
+    /// QEM: relative conditioning threshold of the optimal-placement solve (the
+    /// 3×3 determinant against the cube of the mean diagonal entry); a quadric below
+    /// it is placed at the minimum along the edge instead. Default
+    /// [`crate::cost::QEM_CONDITION`] (`1e-7`); `1e-6` was the earlier default.
+    pub solve_condition: f64,
+    /// QEM: weight λ of the displacement guard ([`QemOptions::displacement_guard`]):
+    /// a collapse whose old points end up a distance `e` off the triangles it leaves
+    /// is ranked at least `λ · area · e²`. `0` (default) turns it off.
+    pub displacement_guard: f64,
     /// Maximum angle in degrees a triangle's normal may turn in one collapse.
     /// Default `None` (only fold-overs, turns of 90° or more, are refused).
     pub max_normal_deviation: Option<f64>,
@@ -208,6 +217,8 @@ impl Default for SimplifyOptions {
             preserve_topology: true,
             boundary_weight: 10.0,
             area_exponent: 1.0,
+            solve_condition: crate::cost::QEM_CONDITION,
+            displacement_guard: 0.0,
             max_normal_deviation: None,
             pair_threshold: None,
             min_triangle_quality: 0.1,
@@ -276,6 +287,18 @@ impl SimplifyOptions {
     #[must_use]
     pub fn with_area_exponent(mut self, alpha: f64) -> Self {
         self.area_exponent = alpha;
+        self
+    }
+    /// Sets [`Self::solve_condition`].
+    #[must_use]
+    pub fn with_solve_condition(mut self, c: f64) -> Self {
+        self.solve_condition = c;
+        self
+    }
+    /// Sets [`Self::displacement_guard`].
+    #[must_use]
+    pub fn with_displacement_guard(mut self, lambda: f64) -> Self {
+        self.displacement_guard = lambda;
         self
     }
     /// Sets [`Self::boundary_weight`].
@@ -382,6 +405,18 @@ impl SimplifyOptions {
             return bad(
                 "area_exponent",
                 format!("{} is not in [0, 2]", self.area_exponent),
+            );
+        }
+        if !(self.displacement_guard >= 0.0 && self.displacement_guard.is_finite()) {
+            return bad(
+                "displacement_guard",
+                format!("{} is not finite and non-negative", self.displacement_guard),
+            );
+        }
+        if !(self.solve_condition >= 0.0 && self.solve_condition.is_finite()) {
+            return bad(
+                "solve_condition",
+                format!("{} is not finite and non-negative", self.solve_condition),
             );
         }
         if !(self.boundary_weight >= 0.0 && self.boundary_weight.is_finite()) {
@@ -594,6 +629,8 @@ pub fn simplify_observed(
                 boundary_weight: options.boundary_weight,
                 area_exponent: options.area_exponent,
                 placement: options.placement,
+                condition: options.solve_condition,
+                displacement_guard: options.displacement_guard,
                 ..QemOptions::default()
             };
             let mut qem = Qem::new(qo);

@@ -32,6 +32,7 @@
 
 mod surface;
 
+pub(crate) use surface::closest_on_triangle;
 pub use surface::{BuildOptions, Repair, Surface, DEAD};
 
 use crate::mesh::VertexKind;

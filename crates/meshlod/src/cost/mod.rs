@@ -15,7 +15,7 @@ mod melax;
 mod qem;
 
 pub use melax::{Melax, MelaxOptions};
-pub use qem::{Placement, Qem, QemOptions};
+pub use qem::{Placement, Qem, QemOptions, QEM_CONDITION};
 
 use crate::collapse::{CollapseRecord, Moves, Surface};
 

@@ -136,6 +136,15 @@ pub type TriangleLists = (Vec<[u32; 3]>, Vec<[u32; 3]>, Option<Vec<u32>>);
 /// Largest fan (number of triangles around a point) that is considered for removal.
 pub const MAX_VALENCE: usize = 63;
 
+/// Bytes copied at once per sub-polygon of the split search (at least the longest
+/// loop).
+const POLY_SPAN: usize = MAX_VALENCE + 1;
+
+/// Room in `Plan::polys`: the loop, one `len + 2` bytes per split (at most
+/// `MAX_VALENCE` splits of a loop of at most `POLY_SPAN` points), and the slack of
+/// the fixed-size copies.
+const POLYS_CAP: usize = POLY_SPAN + MAX_VALENCE * (POLY_SPAN + 2) + 3 * POLY_SPAN;
+
 /// Removals whose accumulated bound `e` reaches this fraction of the bounding-box
 /// diagonal are checked against the input surface (module docs, "Facing the
 /// input"): below it a new triangle is that near the surface it replaced, and only a
@@ -1149,17 +1158,21 @@ impl VertexRemoval {
         };
         let plan = &mut self.plan;
         let m = plan.q.len();
-        plan.polys.clear();
+        if plan.polys.len() < POLYS_CAP {
+            plan.polys.resize(POLYS_CAP, 0);
+        }
         plan.stack.clear();
         let mut i = r.first;
+        let mut k = 0;
         loop {
-            plan.polys.push(i as u8);
+            plan.polys[k] = i as u8;
+            k += 1;
             if i == r.last {
                 break;
             }
             i = if i + 1 == m { 0 } else { i + 1 };
         }
-        plan.stack.push((0, plan.polys.len() as u32));
+        plan.stack.push((0, k as u32));
         let n = r.normal;
         // The split-plane tests in the frame of the region's plane: for a line
         // direction `d` the split plane's normal is `d × n`, and `(p − a)·(d × n)` is
@@ -1168,7 +1181,6 @@ impl VertexRemoval {
         let mut uv = std::mem::take(&mut plan.uv);
         uv.clear();
         uv.extend(plan.pos.iter().map(|p| [dot(*p, e1), dot(*p, e2)]));
-        let mut poly = [0u8; MAX_VALENCE + 1];
         let mut w_all = std::mem::take(&mut plan.w);
         w_all.clear();
         w_all.resize(m, [0.0; 2]);
@@ -1184,7 +1196,6 @@ impl VertexRemoval {
             self.area_eps,
             &uv,
             &mut w_all,
-            &mut poly,
             &mut forbid,
         );
         plan.uv = uv;
@@ -1205,15 +1216,18 @@ impl VertexRemoval {
         area_eps: f64,
         uv: &[[f64; 2]],
         w_all: &mut [[f64; 2]],
-        poly: &mut [u8; MAX_VALENCE + 1],
         forbid: &mut [u64],
     ) -> Result<(), Refusal> {
         let m = plan.q.len();
         let n = r.normal;
+        // Sub-polygons are copied `POLY_SPAN` bytes at a time (fixed-size copies,
+        // no library calls); `polys` has room for that past its used length `used`.
+        let mut buf = [0u8; 2 * POLY_SPAN];
+        let mut used = plan.stack.last().map_or(0, |&(o, l)| (o + l) as usize);
         while let Some((off, len)) = plan.stack.pop() {
-            let len = len as usize;
-            poly[..len].copy_from_slice(&plan.polys[off as usize..off as usize + len]);
-            let poly = &poly[..len];
+            let (off, len) = (off as usize, len as usize);
+            buf[..POLY_SPAN].copy_from_slice(&plan.polys[off..off + POLY_SPAN]);
+            let poly = &buf[..len];
             if len < 3 {
                 continue;
             }
@@ -1336,13 +1350,17 @@ impl VertexRemoval {
                 return Err(Refusal::NoSplit);
             };
             plan.diagonals.push([poly[i], poly[j]]);
-            let o1 = plan.polys.len() as u32;
-            plan.polys.extend_from_slice(&poly[i..=j]);
-            plan.stack.push((o1, (j - i + 1) as u32));
-            let o2 = plan.polys.len() as u32;
-            plan.polys.extend_from_slice(&poly[j..]);
-            plan.polys.extend_from_slice(&poly[..=i]);
-            plan.stack.push((o2, (len - j + i + 1) as u32));
+            // `poly[i..=j]`, then `poly[j..]` followed by `poly[..=i]`.
+            let o1 = used;
+            plan.polys[o1..o1 + POLY_SPAN].copy_from_slice(&buf[i..i + POLY_SPAN]);
+            used += j - i + 1;
+            plan.stack.push((o1 as u32, (j - i + 1) as u32));
+            let o2 = used;
+            plan.polys[o2..o2 + POLY_SPAN].copy_from_slice(&buf[j..j + POLY_SPAN]);
+            let o3 = o2 + len - j;
+            plan.polys[o3..o3 + POLY_SPAN].copy_from_slice(&buf[..POLY_SPAN]);
+            used += len - j + i + 1;
+            plan.stack.push((o2 as u32, (len - j + i + 1) as u32));
         }
         Ok(())
     }

@@ -127,6 +127,7 @@ use crate::mesh::VertexKind;
 use crate::metrics::bvh::Bvh;
 use crate::metrics::triangle::closest_point;
 use crate::quadric::{cross, dot, sub};
+use rayon::prelude::*;
 use serde::Serialize;
 
 /// Live triangles as wedge (input vertex) triples and point triples, with their
@@ -144,6 +145,10 @@ const POLY_SPAN: usize = MAX_VALENCE + 1;
 /// `MAX_VALENCE` splits of a loop of at most `POLY_SPAN` points), and the slack of
 /// the fixed-size copies.
 const POLYS_CAP: usize = POLY_SPAN + MAX_VALENCE * (POLY_SPAN + 2) + 3 * POLY_SPAN;
+
+/// Fewest points per thread of the parallel initial pass
+/// ([`VertexRemoval::initial_pass`]).
+const INITIAL_CHUNK: usize = 8192;
 
 /// Removals whose accumulated bound `e` reaches this fraction of the bounding-box
 /// diagonal are checked against the input surface (module docs, "Facing the
@@ -1761,6 +1766,92 @@ impl VertexRemoval {
         heap.push(exact);
     }
 
+    /// Queues every point with the cheap lower bound of its key (as
+    /// [`Self::push`] with nothing due). The bounds are independent of each other
+    /// before the first removal, so with several rayon threads they are computed
+    /// in parallel, by workers with their own copy of the connectivity, and then
+    /// queued in point order: the queue, and so the run, is the same for any number
+    /// of threads.
+    fn initial_pass(&mut self, heap: &mut Heap) {
+        let np = self.pt.len();
+        let threads = rayon::current_num_threads().min(np / INITIAL_CHUNK).max(1);
+        if threads == 1 {
+            for v in 0..np as u32 {
+                if self.pt[v as usize].len > 0 {
+                    self.push(heap, v, 0);
+                }
+            }
+            return;
+        }
+        let chunk = np.div_ceil(threads);
+        let results: Vec<Vec<Result<u32, Refusal>>> = (0..threads)
+            .into_par_iter()
+            .map(|c| {
+                let mut w = self.bound_worker();
+                (c * chunk..np.min((c + 1) * chunk))
+                    .map(|v| {
+                        if w.pt[v].len == 0 {
+                            return Err(Refusal::Kind);
+                        }
+                        w.evaluate_bound(v as u32)
+                            .map(|()| Item::default().with_cost(w.key()).cost_bits)
+                    })
+                    .collect()
+            })
+            .collect();
+        for (v, r) in results.into_iter().flatten().enumerate() {
+            if self.pt[v].len == 0 {
+                continue;
+            }
+            match r {
+                Ok(cost_bits) => {
+                    self.queued[v] = cost_bits;
+                    heap.push(Item {
+                        a: v as u32,
+                        b: 0,
+                        stamp: self.pt[v].version,
+                        cost_bits,
+                    });
+                }
+                Err(r) => {
+                    self.queued[v] = 0;
+                    self.count(r);
+                }
+            }
+        }
+    }
+
+    /// A copy of what [`Self::evaluate_bound`] reads and writes, for the parallel
+    /// [`Self::initial_pass`].
+    fn bound_worker(&self) -> Self {
+        Self {
+            tri: self.tri.clone(),
+            has_groups: self.has_groups,
+            pt: self.pt.clone(),
+            marks: vec![Mark::default(); self.marks.len()],
+            fans: self.fans.clone(),
+            fan_garbage: self.fan_garbage,
+            live: self.live,
+            options: self.options,
+            cos_feature: self.cos_feature,
+            area_eps: self.area_eps,
+            plan: Plan::default(),
+            gen: 0,
+            rejections: Rejections::default(),
+            order_by_bound: self.order_by_bound,
+            kept: Vec::new(),
+            kept_tris: Vec::new(),
+            kept_diagonals: Vec::new(),
+            input_tri: Vec::new(),
+            input_normal: Vec::new(),
+            input_tree: None,
+            away: Vec::new(),
+            facing_from: self.facing_from,
+            facing_tier: self.facing_tier,
+            queued: Vec::new(),
+        }
+    }
+
     /// Removes points, cheapest first, until the stop rule holds or nothing can be
     /// removed; returns what happened (`collapses` counts removed points, `max_error`
     /// is the largest accumulated bound of a performed removal). The observer sees
@@ -1797,11 +1888,7 @@ impl VertexRemoval {
         }
         let mut heap = Heap::with_capacity(self.pt.len());
         if self.live > target {
-            for v in 0..self.pt.len() as u32 {
-                if self.pt[v as usize].len > 0 {
-                    self.push(&mut heap, v, 0);
-                }
-            }
+            self.initial_pass(&mut heap);
         }
         let mut removed = 0usize;
         let mut over_error = false;

@@ -1774,7 +1774,12 @@ impl VertexRemoval {
     /// of threads.
     fn initial_pass(&mut self, heap: &mut Heap) {
         let np = self.pt.len();
-        let threads = rayon::current_num_threads().min(np / INITIAL_CHUNK).max(1);
+        // (Small meshes do not start rayon's thread pool.)
+        let threads = if np < 2 * INITIAL_CHUNK {
+            1
+        } else {
+            rayon::current_num_threads().min(np / INITIAL_CHUNK).max(1)
+        };
         if threads == 1 {
             for v in 0..np as u32 {
                 if self.pt[v as usize].len > 0 {

@@ -94,6 +94,9 @@
 //! passes over all points with a threshold that grows until the target — removes
 //! points in index order inside a pass, so a pass mixes cheap and expensive removals
 //! under its threshold; the queue costs one heap operation per evaluation.
+//! The initial bounds of all points are independent of each other, so on large
+//! meshes they are computed on rayon's threads and queued in point order: the run
+//! does not depend on the number of threads.
 //!
 //! Lower bounds are loose (the average-plane distance is about a third of the exact
 //! key, which the gaps of the new patch dominate), so a point's loop neighbours are

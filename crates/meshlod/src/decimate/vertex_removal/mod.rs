@@ -94,6 +94,9 @@
 //! passes over all points with a threshold that grows until the target — removes
 //! points in index order inside a pass, so a pass mixes cheap and expensive removals
 //! under its threshold; the queue costs one heap operation per evaluation.
+//! The initial bounds of all points are independent of each other, so on large
+//! meshes they are computed on rayon's threads and queued in point order: the run
+//! does not depend on the number of threads.
 //!
 //! Lower bounds are loose (the average-plane distance is about a third of the exact
 //! key, which the gaps of the new patch dominate), so a point's loop neighbours are
@@ -127,6 +130,7 @@ use crate::mesh::VertexKind;
 use crate::metrics::bvh::Bvh;
 use crate::metrics::triangle::closest_point;
 use crate::quadric::{cross, dot, sub};
+use rayon::prelude::*;
 use serde::Serialize;
 
 /// Live triangles as wedge (input vertex) triples and point triples, with their
@@ -135,6 +139,19 @@ pub type TriangleLists = (Vec<[u32; 3]>, Vec<[u32; 3]>, Option<Vec<u32>>);
 
 /// Largest fan (number of triangles around a point) that is considered for removal.
 pub const MAX_VALENCE: usize = 63;
+
+/// Bytes copied at once per sub-polygon of the split search (at least the longest
+/// loop).
+const POLY_SPAN: usize = MAX_VALENCE + 1;
+
+/// Room in `Plan::polys`: the loop, one `len + 2` bytes per split (at most
+/// `MAX_VALENCE` splits of a loop of at most `POLY_SPAN` points), and the slack of
+/// the fixed-size copies.
+const POLYS_CAP: usize = POLY_SPAN + MAX_VALENCE * (POLY_SPAN + 2) + 3 * POLY_SPAN;
+
+/// Fewest points per thread of the parallel initial pass
+/// ([`VertexRemoval::initial_pass`]).
+const INITIAL_CHUNK: usize = 8192;
 
 /// Removals whose accumulated bound `e` reaches this fraction of the bounding-box
 /// diagonal are checked against the input surface (module docs, "Facing the
@@ -1149,17 +1166,21 @@ impl VertexRemoval {
         };
         let plan = &mut self.plan;
         let m = plan.q.len();
-        plan.polys.clear();
+        if plan.polys.len() < POLYS_CAP {
+            plan.polys.resize(POLYS_CAP, 0);
+        }
         plan.stack.clear();
         let mut i = r.first;
+        let mut k = 0;
         loop {
-            plan.polys.push(i as u8);
+            plan.polys[k] = i as u8;
+            k += 1;
             if i == r.last {
                 break;
             }
             i = if i + 1 == m { 0 } else { i + 1 };
         }
-        plan.stack.push((0, plan.polys.len() as u32));
+        plan.stack.push((0, k as u32));
         let n = r.normal;
         // The split-plane tests in the frame of the region's plane: for a line
         // direction `d` the split plane's normal is `d × n`, and `(p − a)·(d × n)` is
@@ -1168,7 +1189,6 @@ impl VertexRemoval {
         let mut uv = std::mem::take(&mut plan.uv);
         uv.clear();
         uv.extend(plan.pos.iter().map(|p| [dot(*p, e1), dot(*p, e2)]));
-        let mut poly = [0u8; MAX_VALENCE + 1];
         let mut w_all = std::mem::take(&mut plan.w);
         w_all.clear();
         w_all.resize(m, [0.0; 2]);
@@ -1184,7 +1204,6 @@ impl VertexRemoval {
             self.area_eps,
             &uv,
             &mut w_all,
-            &mut poly,
             &mut forbid,
         );
         plan.uv = uv;
@@ -1205,15 +1224,18 @@ impl VertexRemoval {
         area_eps: f64,
         uv: &[[f64; 2]],
         w_all: &mut [[f64; 2]],
-        poly: &mut [u8; MAX_VALENCE + 1],
         forbid: &mut [u64],
     ) -> Result<(), Refusal> {
         let m = plan.q.len();
         let n = r.normal;
+        // Sub-polygons are copied `POLY_SPAN` bytes at a time (fixed-size copies,
+        // no library calls); `polys` has room for that past its used length `used`.
+        let mut buf = [0u8; 2 * POLY_SPAN];
+        let mut used = plan.stack.last().map_or(0, |&(o, l)| (o + l) as usize);
         while let Some((off, len)) = plan.stack.pop() {
-            let len = len as usize;
-            poly[..len].copy_from_slice(&plan.polys[off as usize..off as usize + len]);
-            let poly = &poly[..len];
+            let (off, len) = (off as usize, len as usize);
+            buf[..POLY_SPAN].copy_from_slice(&plan.polys[off..off + POLY_SPAN]);
+            let poly = &buf[..len];
             if len < 3 {
                 continue;
             }
@@ -1336,13 +1358,17 @@ impl VertexRemoval {
                 return Err(Refusal::NoSplit);
             };
             plan.diagonals.push([poly[i], poly[j]]);
-            let o1 = plan.polys.len() as u32;
-            plan.polys.extend_from_slice(&poly[i..=j]);
-            plan.stack.push((o1, (j - i + 1) as u32));
-            let o2 = plan.polys.len() as u32;
-            plan.polys.extend_from_slice(&poly[j..]);
-            plan.polys.extend_from_slice(&poly[..=i]);
-            plan.stack.push((o2, (len - j + i + 1) as u32));
+            // `poly[i..=j]`, then `poly[j..]` followed by `poly[..=i]`.
+            let o1 = used;
+            plan.polys[o1..o1 + POLY_SPAN].copy_from_slice(&buf[i..i + POLY_SPAN]);
+            used += j - i + 1;
+            plan.stack.push((o1 as u32, (j - i + 1) as u32));
+            let o2 = used;
+            plan.polys[o2..o2 + POLY_SPAN].copy_from_slice(&buf[j..j + POLY_SPAN]);
+            let o3 = o2 + len - j;
+            plan.polys[o3..o3 + POLY_SPAN].copy_from_slice(&buf[..POLY_SPAN]);
+            used += len - j + i + 1;
+            plan.stack.push((o2 as u32, (len - j + i + 1) as u32));
         }
         Ok(())
     }
@@ -1743,6 +1769,97 @@ impl VertexRemoval {
         heap.push(exact);
     }
 
+    /// Queues every point with the cheap lower bound of its key (as
+    /// [`Self::push`] with nothing due). The bounds are independent of each other
+    /// before the first removal, so with several rayon threads they are computed
+    /// in parallel, by workers with their own copy of the connectivity, and then
+    /// queued in point order: the queue, and so the run, is the same for any number
+    /// of threads.
+    fn initial_pass(&mut self, heap: &mut Heap) {
+        let np = self.pt.len();
+        // (Small meshes do not start rayon's thread pool.)
+        let threads = if np < 2 * INITIAL_CHUNK {
+            1
+        } else {
+            rayon::current_num_threads().min(np / INITIAL_CHUNK).max(1)
+        };
+        if threads == 1 {
+            for v in 0..np as u32 {
+                if self.pt[v as usize].len > 0 {
+                    self.push(heap, v, 0);
+                }
+            }
+            return;
+        }
+        let chunk = np.div_ceil(threads);
+        let results: Vec<Vec<Result<u32, Refusal>>> = (0..threads)
+            .into_par_iter()
+            .map(|c| {
+                let mut w = self.bound_worker();
+                (c * chunk..np.min((c + 1) * chunk))
+                    .map(|v| {
+                        if w.pt[v].len == 0 {
+                            return Err(Refusal::Kind);
+                        }
+                        w.evaluate_bound(v as u32)
+                            .map(|()| Item::default().with_cost(w.key()).cost_bits)
+                    })
+                    .collect()
+            })
+            .collect();
+        for (v, r) in results.into_iter().flatten().enumerate() {
+            if self.pt[v].len == 0 {
+                continue;
+            }
+            match r {
+                Ok(cost_bits) => {
+                    self.queued[v] = cost_bits;
+                    heap.push(Item {
+                        a: v as u32,
+                        b: 0,
+                        stamp: self.pt[v].version,
+                        cost_bits,
+                    });
+                }
+                Err(r) => {
+                    self.queued[v] = 0;
+                    self.count(r);
+                }
+            }
+        }
+    }
+
+    /// A copy of what [`Self::evaluate_bound`] reads and writes, for the parallel
+    /// [`Self::initial_pass`].
+    fn bound_worker(&self) -> Self {
+        Self {
+            tri: self.tri.clone(),
+            has_groups: self.has_groups,
+            pt: self.pt.clone(),
+            marks: vec![Mark::default(); self.marks.len()],
+            fans: self.fans.clone(),
+            fan_garbage: self.fan_garbage,
+            live: self.live,
+            options: self.options,
+            cos_feature: self.cos_feature,
+            area_eps: self.area_eps,
+            plan: Plan::default(),
+            gen: 0,
+            rejections: Rejections::default(),
+            order_by_bound: self.order_by_bound,
+            kept: Vec::new(),
+            kept_tris: Vec::new(),
+            kept_diagonals: Vec::new(),
+            input_tri: Vec::new(),
+            input_normal: Vec::new(),
+            input_tree: None,
+            away: Vec::new(),
+            facing_from: self.facing_from,
+            facing_tier: self.facing_tier,
+            queued: Vec::new(),
+        }
+    }
+
     /// Removes points, cheapest first, until the stop rule holds or nothing can be
     /// removed; returns what happened (`collapses` counts removed points, `max_error`
     /// is the largest accumulated bound of a performed removal). The observer sees
@@ -1779,11 +1896,7 @@ impl VertexRemoval {
         }
         let mut heap = Heap::with_capacity(self.pt.len());
         if self.live > target {
-            for v in 0..self.pt.len() as u32 {
-                if self.pt[v as usize].len > 0 {
-                    self.push(&mut heap, v, 0);
-                }
-            }
+            self.initial_pass(&mut heap);
         }
         let mut removed = 0usize;
         let mut over_error = false;

@@ -152,3 +152,46 @@ fn cube_corners_kept_on_request() {
     assert_eq!(vr.live_triangles(), 12);
     assert!(out.max_error < 1e-12);
 }
+
+/// The initial pass over all points runs in parallel with several rayon threads;
+/// the run must not depend on how many: same triangles, same removals, same
+/// refusals with one thread and with two (a bumpy sphere large enough for two
+/// chunks of the pass).
+#[test]
+fn initial_pass_is_the_same_for_any_thread_count() {
+    let mut m = generate::icosphere(6);
+    for p in &mut m.positions {
+        let bump =
+            1.0 + 0.05 * (7.0 * p[0]).sin() * (5.0 * p[1]).cos() + 0.02 * (11.0 * p[2]).sin();
+        *p = p.map(|x| x * bump);
+    }
+    let target = m.triangle_count() / 10;
+    let run = |threads: usize| {
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap();
+        pool.install(|| {
+            let mut vr = remover(
+                &m,
+                VertexRemovalOptions {
+                    stop: StopRule {
+                        target_triangles: target,
+                        max_error: None,
+                    },
+                    ..VertexRemovalOptions::default()
+                },
+            );
+            assert!(vr.pt.len() >= 2 * INITIAL_CHUNK);
+            let out = vr.run(&mut NoObserver);
+            (vr.output_triangles(), out.collapses, out.rejections)
+        })
+    };
+    let one = run(1);
+    let two = run(2);
+    assert!(one.0 .1.len() <= target);
+    assert_eq!(one.0 .1, two.0 .1);
+    assert_eq!(one.0 .0, two.0 .0);
+    assert_eq!(one.1, two.1);
+    assert_eq!(one.2, two.2);
+}

@@ -77,14 +77,15 @@ pub struct SimplifyArgs {
     /// detail and lowers the maximum error on most meshes; 0 = uniform).
     #[arg(long, value_name = "A")]
     pub area_exponent: Option<f64>,
-    /// QEM: conditioning threshold of the optimal-placement solve (relative
-    /// determinant; below it the vertex goes to the best point on the edge).
-    /// Default 1e-7 (1e-6 before 2026-12-02).
+    /// QEM: conditioning threshold C of the optimal-placement solve, in [0, 1):
+    /// where det(A) <= C·(tr(A)/3)³ (A the quadric's 3×3 part) the vertex goes to
+    /// the best point on the edge instead. Default 1e-7.
     #[arg(long, value_name = "C")]
     pub solve_condition: Option<f64>,
     /// QEM: displacement guard weight L (0 = off, default): a collapse whose old
     /// points end up a distance e off the triangles it leaves ranks at least
-    /// L · area · e² (protects thin tips the plane quadric cannot see shortened).
+    /// L · W · e², W the pair's quadric weight (area-scaled; protects thin tips
+    /// the plane quadric cannot see shortened).
     #[arg(long, value_name = "L")]
     pub displacement_guard: Option<f64>,
     /// Refuse collapses that turn a triangle's normal by more than DEG degrees.

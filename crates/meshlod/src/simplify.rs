@@ -154,14 +154,16 @@ pub struct SimplifyOptions {
     /// Exponent α of QEM's triangle weights `area^α · mean_area^(1−α)`: `1` is
     /// area weighting, `0.5` keeps small triangles (detail) more. Default `1.0`.
     pub area_exponent: f64,
-    /// QEM: relative conditioning threshold of the optimal-placement solve (the
-    /// 3×3 determinant against the cube of the mean diagonal entry); a quadric below
-    /// it is placed at the minimum along the edge instead. Default
-    /// [`crate::cost::QEM_CONDITION`] (`1e-7`); `1e-6` was the earlier default.
+    /// QEM: relative conditioning threshold `c` of the optimal-placement solve, in
+    /// `[0, 1)`: a quadric with `det(A) ≤ c·(tr(A)/3)³` (`A` its 3×3 part; the ratio
+    /// is at most 1 for any quadric) is placed at the minimum along the edge
+    /// instead. Default [`crate::cost::QEM_CONDITION`] (`1e-7`).
     pub solve_condition: f64,
     /// QEM: weight λ of the displacement guard ([`QemOptions::displacement_guard`]):
-    /// a collapse whose old points end up a distance `e` off the triangles it leaves
-    /// is ranked at least `λ · area · e²`. `0` (default) turns it off.
+    /// a collapse whose old points end up a distance `e` (mesh units) off the
+    /// triangles it leaves is ranked at least `λ · W · e²`, `W` the pair's summed
+    /// quadric weight (area-scaled, including border and seam planes). `0`
+    /// (default) turns it off; finite and non-negative.
     pub displacement_guard: f64,
     /// Maximum angle in degrees a triangle's normal may turn in one collapse.
     /// Default `None` (only fold-overs, turns of 90° or more, are refused).
@@ -413,10 +415,13 @@ impl SimplifyOptions {
                 format!("{} is not finite and non-negative", self.displacement_guard),
             );
         }
-        if !(self.solve_condition >= 0.0 && self.solve_condition.is_finite()) {
+        if !(self.solve_condition >= 0.0 && self.solve_condition < 1.0) {
             return bad(
                 "solve_condition",
-                format!("{} is not finite and non-negative", self.solve_condition),
+                format!(
+                    "{} is not in [0, 1) (det(A) / (tr(A)/3)³ is at most 1)",
+                    self.solve_condition
+                ),
             );
         }
         if !(self.boundary_weight >= 0.0 && self.boundary_weight.is_finite()) {

@@ -72,10 +72,14 @@ pub struct QemOptions {
     /// lowered the maximum Hausdorff distance on most of our test meshes at a small
     /// cost in mean distance (see the README).
     pub area_exponent: f64,
-    /// Weight λ of the displacement guard (`0` = off, default). Checked once per
-    /// performed collapse ([`CostModel::confirm`]): with `e` the larger distance
-    /// of the two old points from the triangles the collapse leaves around them
-    /// (current geometry) and `W` the summed quadric weight (area), the priority
+    /// Weight λ of the displacement guard (`0` = off, default; must be finite and
+    /// non-negative, as [`crate::SimplifyOptions`] checks). Checked only when a
+    /// candidate is about to be performed ([`CostModel::confirm`]): with `e` the
+    /// larger distance of the two old points from the triangles the collapse leaves
+    /// around them (current geometry; the candidate position before its rounding to
+    /// `f32`) and `W` the pair's summed quadric weight (the area-scaled triangle
+    /// weights plus any border and seam constraint planes, so border points are
+    /// guarded more strongly), the priority
     /// becomes `max(cost, λ·W·e²)`. The plane quadric cannot see a thin tip being
     /// shortened (its planes run along the tip), but the old tip point then lies
     /// far off the new triangles; ordinary collapses, whose old points lie within
@@ -329,8 +333,9 @@ impl CostModel for Qem {
             return candidate.cost;
         }
         let w = self.quadrics[u as usize].weight + self.quadrics[v as usize].weight;
-        let guard = lambda * w * e2;
-        if guard.is_finite() && guard > candidate.cost {
+        // An overflow must not drop the guard: cap it at the largest finite cost.
+        let guard = (lambda * w * e2).min(f64::MAX);
+        if guard > candidate.cost {
             guard
         } else {
             candidate.cost

@@ -475,7 +475,11 @@ impl Bvh {
                 return true;
             }
         }
-        let mut stack: Vec<u32> = Vec::with_capacity(64);
+        // A fixed stack, spilling to the heap only on pathological depths (the
+        // answer does not depend on the visiting order).
+        let mut stack = [0u32; 64];
+        let mut sp = 0usize;
+        let mut spill: Vec<u32> = Vec::new();
         let mut node = 0usize;
         if !near(box_dist2(p, &self.nodes[0])) {
             return false;
@@ -502,15 +506,24 @@ impl Bvh {
                 };
                 if near(dn) {
                     if near(df) {
-                        stack.push(far_c as u32);
+                        if sp < stack.len() {
+                            stack[sp] = far_c as u32;
+                            sp += 1;
+                        } else {
+                            spill.push(far_c as u32);
+                        }
                     }
                     node = near_c;
                     continue;
                 }
             }
-            match stack.pop() {
-                Some(c) => node = c as usize,
-                None => return false,
+            if let Some(c) = spill.pop() {
+                node = c as usize;
+            } else if sp > 0 {
+                sp -= 1;
+                node = stack[sp] as usize;
+            } else {
+                return false;
             }
         }
     }

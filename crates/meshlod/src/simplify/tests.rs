@@ -259,10 +259,44 @@ fn empty_nan_and_bad_options() {
         SimplifyOptions::default().with_boundary_weight(f64::INFINITY),
         SimplifyOptions::default().with_max_normal_deviation(200.0),
         SimplifyOptions::default().with_min_triangle_quality(2.0),
+        SimplifyOptions::default().with_solve_condition(f64::NAN),
+        SimplifyOptions::default().with_solve_condition(-1.0),
+        SimplifyOptions::default().with_solve_condition(1.0),
+        SimplifyOptions::default().with_solve_condition(f64::INFINITY),
+        SimplifyOptions::default().with_displacement_guard(f64::NAN),
+        SimplifyOptions::default().with_displacement_guard(-1.0),
+        SimplifyOptions::default().with_displacement_guard(f64::INFINITY),
     ] {
         assert!(
             matches!(simplify(&m, &o), Err(SimplifyError::Option { .. })),
             "{o:?}"
+        );
+    }
+}
+
+/// The QEM options `solve_condition` and `displacement_guard` reach the cost model:
+/// on a bumpy sphere, a near-1 conditioning threshold (every solve refused, so every
+/// point goes to the edge) and a dominant guard each give another mesh than the
+/// defaults, and their in-range values are accepted.
+#[test]
+fn qem_solve_condition_and_guard_reach_the_cost_model() {
+    let mut m = generate::icosphere(3);
+    for (i, p) in m.positions.iter_mut().enumerate() {
+        // A deterministic bump per vertex so that the quadrics are not all alike.
+        let s = 1.0 + 0.05 * ((i as f32) * 0.618_034).fract();
+        *p = [p[0] * s, p[1] * s, p[2] * s];
+    }
+    let base = SimplifyOptions::default().with_ratio(0.2);
+    let (reference, _) = simplify(&m, &base).unwrap();
+    for o in [
+        base.clone().with_solve_condition(0.999),
+        base.clone().with_displacement_guard(1e6),
+    ] {
+        let (out, report) = simplify(&m, &o).unwrap();
+        assert_eq!(report.stop_reason, StopReason::TargetReached, "{o:?}");
+        assert!(
+            out.positions != reference.positions || out.triangles != reference.triangles,
+            "{o:?} gave the default's mesh"
         );
     }
 }

@@ -312,7 +312,7 @@ pub(crate) fn representative(
 }
 
 /// The regularisation weight of [`regularised_minimum`], relative to `tr(A)`.
-pub(crate) const REGULARISATION: f64 = 1e-3;
+const REGULARISATION: f64 = 1e-3;
 
 /// The fallback of an ill-conditioned cell: the minimiser of `Δ(x) + λ‖x − c‖²`
 /// with `λ = 10⁻³·tr(A)` (a Tikhonov-regularised solve toward the cell's mean `c`):

@@ -656,20 +656,27 @@ mod tests {
         ((*seed >> 40) as f32) / (1u64 << 24) as f32
     }
 
-    /// The box query finds exactly the triangles whose boxes overlap the query box
-    /// (brute force over a seeded soup), each once.
-    #[test]
-    fn box_query_equals_brute_force() {
-        let mut s = 12345u64;
+    /// A seeded soup of `n` separate unit-sized triangles in a 10-unit cube, and the
+    /// generator's state after it.
+    fn random_soup(seed: u64, n: u32) -> (Vec<[f32; 3]>, Vec<[u32; 3]>, u64) {
+        let mut s = seed;
         let mut positions = Vec::new();
         let mut triangles = Vec::new();
-        for t in 0..2000u32 {
+        for t in 0..n {
             let c = [lcg(&mut s) * 10.0, lcg(&mut s) * 10.0, lcg(&mut s) * 10.0];
             for _ in 0..3 {
                 positions.push([c[0] + lcg(&mut s), c[1] + lcg(&mut s), c[2] + lcg(&mut s)]);
             }
             triangles.push([3 * t, 3 * t + 1, 3 * t + 2]);
         }
+        (positions, triangles, s)
+    }
+
+    /// The box query finds exactly the triangles whose boxes overlap the query box
+    /// (brute force over a seeded soup), each once.
+    #[test]
+    fn box_query_equals_brute_force() {
+        let (positions, triangles, mut s) = random_soup(12345, 2000);
         for bvh in [
             Bvh::build(&positions, &triangles),
             Bvh::build_morton(&positions, &triangles),
@@ -762,16 +769,7 @@ mod tests {
     /// without hints, on both builds.
     #[test]
     fn any_near_equals_closest() {
-        let mut s = 99u64;
-        let mut positions = Vec::new();
-        let mut triangles = Vec::new();
-        for t in 0..3000u32 {
-            let c = [lcg(&mut s) * 10.0, lcg(&mut s) * 10.0, lcg(&mut s) * 10.0];
-            for _ in 0..3 {
-                positions.push([c[0] + lcg(&mut s), c[1] + lcg(&mut s), c[2] + lcg(&mut s)]);
-            }
-            triangles.push([3 * t, 3 * t + 1, 3 * t + 2]);
-        }
+        let (positions, triangles, mut s) = random_soup(99, 3000);
         let mut yes = 0;
         let mut no = 0;
         for bvh in [

@@ -394,10 +394,7 @@ impl Bvh {
         if let Some(h) = hint.filter(|&h| (h as usize) < self.slot_of.len()) {
             self.test_slot(p, self.slot_of[h as usize] as usize, &mut best);
         }
-        let mut stack = [0u32; 64];
-        let mut sp = 0usize;
-        // Deeper than 64 only on pathological splits: spill to the heap, stay exact.
-        let mut spill: Vec<u32> = Vec::new();
+        let mut stack = NodeStack::new();
         let mut node = 0usize;
         loop {
             let nd = &self.nodes[node];
@@ -419,12 +416,7 @@ impl Bvh {
                 };
                 if dn < best.dist2 {
                     if df < best.dist2 {
-                        if sp < stack.len() {
-                            stack[sp] = far as u32;
-                            sp += 1;
-                        } else {
-                            spill.push(far as u32);
-                        }
+                        stack.push(far);
                     }
                     node = near;
                     continue;
@@ -432,12 +424,7 @@ impl Bvh {
             }
             // Pop the next box still worth visiting.
             loop {
-                let cand = if let Some(c) = spill.pop() {
-                    c as usize
-                } else if sp > 0 {
-                    sp -= 1;
-                    stack[sp] as usize
-                } else {
+                let Some(cand) = stack.pop() else {
                     return Some(best);
                 };
                 if box_dist2(p, &self.nodes[cand]) < best.dist2 {
@@ -475,11 +462,8 @@ impl Bvh {
                 return true;
             }
         }
-        // A fixed stack, spilling to the heap only on pathological depths (the
-        // answer does not depend on the visiting order).
-        let mut stack = [0u32; 64];
-        let mut sp = 0usize;
-        let mut spill: Vec<u32> = Vec::new();
+        // (The answer does not depend on the visiting order.)
+        let mut stack = NodeStack::new();
         let mut node = 0usize;
         if !near(box_dist2(p, &self.nodes[0])) {
             return false;
@@ -506,24 +490,15 @@ impl Bvh {
                 };
                 if near(dn) {
                     if near(df) {
-                        if sp < stack.len() {
-                            stack[sp] = far_c as u32;
-                            sp += 1;
-                        } else {
-                            spill.push(far_c as u32);
-                        }
+                        stack.push(far_c);
                     }
                     node = near_c;
                     continue;
                 }
             }
-            if let Some(c) = spill.pop() {
-                node = c as usize;
-            } else if sp > 0 {
-                sp -= 1;
-                node = stack[sp] as usize;
-            } else {
-                return false;
+            match stack.pop() {
+                Some(c) => node = c,
+                None => return false,
             }
         }
     }
@@ -643,6 +618,48 @@ fn box_dist2(p: V3, n: &Node) -> f64 {
         d += e * e;
     }
     d
+}
+
+/// The nodes still to visit in a tree walk: a fixed stack of 64, spilling to the
+/// heap only on pathological depths (the walk stays exact either way). Last in,
+/// first out, the spilled nodes first.
+struct NodeStack {
+    fixed: [u32; 64],
+    len: usize,
+    spill: Vec<u32>,
+}
+
+impl NodeStack {
+    #[inline(always)]
+    fn new() -> Self {
+        Self {
+            fixed: [0; 64],
+            len: 0,
+            spill: Vec::new(),
+        }
+    }
+
+    #[inline(always)]
+    fn push(&mut self, node: usize) {
+        if self.len < self.fixed.len() {
+            self.fixed[self.len] = node as u32;
+            self.len += 1;
+        } else {
+            self.spill.push(node as u32);
+        }
+    }
+
+    #[inline(always)]
+    fn pop(&mut self) -> Option<usize> {
+        if let Some(c) = self.spill.pop() {
+            Some(c as usize)
+        } else if self.len > 0 {
+            self.len -= 1;
+            Some(self.fixed[self.len] as usize)
+        } else {
+            None
+        }
+    }
 }
 
 #[cfg(test)]

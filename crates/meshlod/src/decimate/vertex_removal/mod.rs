@@ -96,7 +96,10 @@
 //! under its threshold; the queue costs one heap operation per evaluation.
 //! The initial bounds of all points are independent of each other, so on large
 //! meshes they are computed on rayon's threads and queued in point order: the run
-//! does not depend on the number of threads.
+//! does not depend on the number of threads. The workers share the mesh (borrowed
+//! read-only) and own only their scratch: a plan (a few kilobytes) and the point
+//! marks, at most 8 bytes a point per worker (allocated zeroed: only the pages its
+//! loops touch become resident), against about 200 bytes a point for the mesh.
 //!
 //! Lower bounds are loose (the average-plane distance is about a third of the exact
 //! key, which the gaps of the new patch dominate), so a point's loop neighbours are
@@ -497,6 +500,359 @@ pub struct VertexRemoval {
     queued: Vec<u32>,
 }
 
+/// What an evaluation's first part ([`Eval::evaluate_bound`]) reads: the mesh and
+/// the options. Only borrowed, so the workers of the parallel initial pass share one.
+#[derive(Clone, Copy)]
+struct View<'a> {
+    tri: &'a [Tri],
+    pt: &'a [Pt],
+    fans: &'a [u32],
+    cos_feature: f64,
+    area_eps: f64,
+    keep_corners: bool,
+    lock_boundary: bool,
+}
+
+/// An evaluation's first part: the mesh it reads ([`View`]) and what it writes, the
+/// plan and the point marks with their generation (the decimator's own, or a worker's
+/// of the parallel initial pass).
+struct Eval<'a> {
+    m: View<'a>,
+    plan: &'a mut Plan,
+    marks: &'a mut [Mark],
+    gen: &'a mut u32,
+}
+
+impl Eval<'_> {
+    fn next_gen(&mut self) -> u32 {
+        *self.gen = self.gen.wrapping_add(1);
+        if *self.gen == 0 {
+            for mk in self.marks.iter_mut() {
+                mk.gen = 0;
+            }
+            *self.gen = 1;
+        }
+        *self.gen
+    }
+
+    /// Fills `plan.q`, `plan.tris`, `plan.ring`, `plan.closed` from the fan of `v`,
+    /// and marks the loop points (generation `plan.gen`, slot = loop index).
+    ///
+    /// Each triangle's record is read once. The fan edge `a → b` of each triangle
+    /// (`(v, a, b)` in its orientation) is linked to the triangle whose edge starts
+    /// at `b` through the marks of the `a` points, so the walk is linear in the
+    /// valence. Refused as complex: a point twice as a start or twice as an end of a
+    /// fan edge, more than one open end, several fans, `v` in its own loop.
+    fn build_loop(&mut self, v: u32) -> Result<(), Refusal> {
+        const NEXT: [usize; 3] = [1, 2, 0];
+        const PREV: [usize; 3] = [2, 0, 1];
+        let fan_len = self.m.pt[v as usize].len as usize;
+        if fan_len == 0 || fan_len > MAX_VALENCE {
+            return Err(Refusal::Kind);
+        }
+        let g = self.next_gen();
+        let s = self.m.pt[v as usize].start as usize;
+        let plan = &mut *self.plan;
+        plan.items.clear();
+        for (i, &t) in self.m.fans[s..s + fan_len].iter().enumerate() {
+            let tt = &self.m.tri[t as usize];
+            let k = if tt.p[0] == v {
+                0
+            } else if tt.p[1] == v {
+                1
+            } else {
+                2
+            };
+            let (ka, kb) = (NEXT[k], PREV[k]);
+            let a = tt.p[ka];
+            let pa = &mut self.marks[a as usize];
+            if pa.gen == g {
+                return Err(Refusal::Kind);
+            }
+            pa.gen = g;
+            pa.slot = i as u8;
+            plan.items.push(FanItem {
+                a,
+                b: tt.p[kb],
+                t,
+                wedge: [tt.wedge[k], tt.wedge[ka], tt.wedge[kb]],
+                group: tt.group,
+                err: tt.err,
+                next: u8::MAX,
+            });
+        }
+        // Link each edge to its successor; no point may end two edges.
+        let mut has_pred = 0u64;
+        for i in 0..fan_len {
+            let b = plan.items[i].b;
+            let pb = &self.marks[b as usize];
+            if pb.gen == g {
+                let n = pb.slot;
+                if has_pred & (1u64 << n) != 0 {
+                    return Err(Refusal::Kind);
+                }
+                has_pred |= 1u64 << n;
+                plan.items[i].next = n;
+            }
+        }
+        let starts = fan_len - has_pred.count_ones() as usize;
+        if starts > 1 {
+            return Err(Refusal::Kind);
+        }
+        let first = if starts == 1 {
+            (!has_pred).trailing_zeros() as usize
+        } else {
+            0
+        };
+        plan.q.clear();
+        plan.tris.clear();
+        plan.ring.clear();
+        plan.closed = starts == 0;
+        let mut cur = first;
+        loop {
+            let it = plan.items[cur];
+            plan.q.push(it.a);
+            plan.tris.push(it.t);
+            plan.ring.push(it);
+            match it.next {
+                u8::MAX => {
+                    plan.q.push(it.b);
+                    break;
+                }
+                n if usize::from(n) == first => break,
+                n => {
+                    if plan.tris.len() >= fan_len {
+                        return Err(Refusal::Kind);
+                    }
+                    cur = usize::from(n);
+                }
+            }
+        }
+        if plan.tris.len() != fan_len {
+            // several fans around v
+            return Err(Refusal::Kind);
+        }
+        // Every start point is a distinct loop point (marked above); the open end is
+        // the one point not marked yet. The marks and slots also serve the edge
+        // lookups (`Plan::adjacent`).
+        if !plan.closed {
+            let end = *plan.q.last().unwrap_or(&v);
+            let pe = &mut self.marks[end as usize];
+            if pe.gen == g {
+                return Err(Refusal::Kind);
+            }
+            pe.gen = g;
+        }
+        for (i, &q) in plan.q.iter().enumerate() {
+            if q == v {
+                return Err(Refusal::Kind);
+            }
+            self.marks[q as usize].slot = i as u8;
+        }
+        plan.gen = g;
+        plan.v = v;
+        Ok(())
+    }
+
+    /// Classifies the loop in `plan` and returns the class with the feature spokes
+    /// (loop indices) of an interior edge; fills wedges, positions and normals.
+    fn classify_loop(&mut self, v: u32) -> Shape {
+        let plan = &mut *self.plan;
+        let m = plan.q.len();
+        let nt = plan.tris.len();
+        let pv = self.m.pt[v as usize].pos;
+        plan.pos.clear();
+        plan.pos
+            .extend(plan.q.iter().map(|&q| sub(self.m.pt[q as usize].pos, pv)));
+        plan.normal.clear();
+        plan.right.clear();
+        plan.left.clear();
+        for i in 0..nt {
+            let j = if i + 1 == m { 0 } else { i + 1 };
+            plan.normal.push(cross(plan.pos[i], plan.pos[j]));
+        }
+        for i in 0..m {
+            let r = if i < nt { plan.ring[i].wedge[1] } else { DEAD };
+            let l = if i > 0 {
+                plan.ring[i - 1].wedge[2]
+            } else if plan.closed {
+                plan.ring[nt - 1].wedge[2]
+            } else {
+                DEAD
+            };
+            plan.right.push(if r == DEAD { l } else { r });
+            plan.left.push(if l == DEAD { r } else { l });
+        }
+        // Features on interior spokes.
+        let mut seams = [0usize; 2];
+        let mut creases = [0usize; 2];
+        let (mut ns, mut nc) = (0, 0);
+        let (lo, hi) = if plan.closed { (0, m) } else { (1, m - 1) };
+        for i in lo..hi {
+            let i0 = if i == 0 { nt - 1 } else { i - 1 };
+            let (f0, f1) = (&plan.ring[i0], &plan.ring[i]);
+            let is_seam =
+                plan.left[i] != plan.right[i] || f0.wedge[0] != f1.wedge[0] || f0.group != f1.group;
+            if is_seam {
+                if ns < 2 {
+                    seams[ns] = i;
+                }
+                ns += 1;
+            } else if is_crease(plan.normal[i0], plan.normal[i], self.m.cos_feature) {
+                if nc < 2 {
+                    creases[nc] = i;
+                }
+                nc += 1;
+            }
+        }
+        let apart = |f: [usize; 2]| {
+            let d = f[1] - f[0];
+            d != 1 && d != m - 1
+        };
+        let mut shape = Shape {
+            class: VertexClass::Corner,
+            features: [0; 2],
+            split: false,
+            seam_blocked: false,
+        };
+        if !plan.closed {
+            shape.seam_blocked = ns > 0;
+            shape.class = if nc == 0 {
+                VertexClass::Boundary
+            } else {
+                VertexClass::Corner
+            };
+        } else if ns == 0 {
+            if nc == 0 {
+                shape.class = VertexClass::Simple;
+            } else if nc == 2 && apart(creases) {
+                shape.class = VertexClass::InteriorEdge;
+                shape.features = creases;
+                shape.split = true;
+            }
+        } else if ns == 2 && apart(seams) {
+            // The seam (or material border) is the feature line; other creases make
+            // it a corner that is still split along the seam.
+            shape.class = if nc == 0 {
+                VertexClass::InteriorEdge
+            } else {
+                VertexClass::Corner
+            };
+            shape.features = seams;
+            shape.split = true;
+        } else {
+            shape.seam_blocked = true;
+        }
+        shape
+    }
+
+    /// The first part of [`VertexRemoval::evaluate`]: classification, average plane and the
+    /// lower bounds of the key (`plan.cost`, `plan.delta`); what the second part,
+    /// [`VertexRemoval::evaluate_plan`], needs is left in `plan`.
+    fn evaluate_bound(&mut self, v: u32) -> Result<(), Refusal> {
+        self.plan.shape = None;
+        self.plan.loop_check = LoopCheck::None;
+        if self.m.pt[v as usize].locked {
+            return Err(Refusal::Kind);
+        }
+        self.build_loop(v)?;
+        let shape = self.classify_loop(v);
+        let (class, features) = (shape.class, shape.features);
+        self.plan.class = Some(class);
+        let open = !self.plan.closed;
+        if shape.seam_blocked {
+            return Err(Refusal::Seam);
+        }
+        if class == VertexClass::Corner && self.m.keep_corners {
+            return Err(Refusal::Kind);
+        }
+        if open && self.m.lock_boundary {
+            return Err(Refusal::Kind);
+        }
+        let m = self.plan.q.len();
+        let nt = self.plan.tris.len();
+        // Existing edges between loop points, found lazily (`Plan::adjacent`, with
+        // the marks of `build_loop`).
+        self.plan.adj.clear();
+        self.plan.adj.resize(m, 0);
+        self.plan.adj_done = 0;
+        // Average plane.
+        let mut area_n = [0.0; 3];
+        let mut area_sum = 0.0;
+        let mut base = [0.0; 3];
+        for i in 0..nt {
+            let n = self.plan.normal[i];
+            let a = norm(n);
+            area_n = add(area_n, n);
+            area_sum += a;
+            let j = if i + 1 == m { 0 } else { i + 1 };
+            let c = scale(add(self.plan.pos[i], self.plan.pos[j]), 1.0 / 3.0);
+            base = add(base, scale(c, a));
+        }
+        if area_sum <= self.m.area_eps {
+            return Err(Refusal::Degenerate);
+        }
+        let ln = norm(area_n);
+        if ln <= 1e-9 * area_sum {
+            return Err(Refusal::Flip);
+        }
+        let n_avg = scale(area_n, 1.0 / ln);
+        base = scale(base, 1.0 / area_sum);
+        // v sits at the origin of plan.pos.
+        let to_line =
+            |i: usize, j: usize| line_distance([0.0; 3], self.plan.pos[i], self.plan.pos[j]);
+        let schroeder = if open {
+            to_line(0, m - 1)
+        } else if class == VertexClass::InteriorEdge {
+            to_line(features[0], features[1])
+        } else if shape.split {
+            dot(base, n_avg)
+                .abs()
+                .max(to_line(features[0], features[1]))
+        } else {
+            dot(base, n_avg).abs()
+        };
+        // Every new triangle spans loop points, so when all loop points lie on one
+        // side of `v` along `n_avg` the new patch lies in that slab and `v` is at least
+        // the nearest loop point's height from it: a lower bound of every gap below,
+        // and a much tighter one than the average plane on a curved surface.
+        let (mut h_min, mut h_max) = (f64::INFINITY, f64::NEG_INFINITY);
+        for p in &self.plan.pos {
+            let h = dot(*p, n_avg);
+            h_min = h_min.min(h);
+            h_max = h_max.max(h);
+        }
+        let slab = if h_min > 0.0 {
+            h_min
+        } else if h_max < 0.0 {
+            -h_max
+        } else {
+            0.0
+        };
+        let schroeder = schroeder.max(slab);
+        let mut e_fan: f64 = 0.0;
+        for f in &self.plan.ring {
+            e_fan = e_fan.max(f.err);
+        }
+        self.plan.cost = e_fan + schroeder;
+        self.plan.delta = schroeder;
+        self.plan.shape = Some(shape);
+        self.plan.n_avg = n_avg;
+        self.plan.e_fan = e_fan;
+        Ok(())
+    }
+}
+
+/// The queue key of an evaluated plan: the accumulated bound with a maximum error,
+/// else the step's `δ`.
+fn plan_key(plan: &Plan, order_by_bound: bool) -> f64 {
+    if order_by_bound {
+        plan.cost
+    } else {
+        plan.delta
+    }
+}
+
 /// The queue key bits of `slack ×` the key with bits `bits` (`bits` itself when
 /// `slack` is 1).
 fn slack_bits(bits: u32, slack: f64) -> u32 {
@@ -713,234 +1069,36 @@ impl VertexRemoval {
         self.pt[pi].len = (w - s) as u32;
     }
 
-    fn next_gen(&mut self) -> u32 {
-        self.gen = self.gen.wrapping_add(1);
-        if self.gen == 0 {
-            for mk in &mut self.marks {
-                mk.gen = 0;
-            }
-            self.gen = 1;
+    /// The evaluation state: the mesh read, the plan and marks written.
+    fn eval(&mut self) -> Eval<'_> {
+        Eval {
+            m: View {
+                tri: &self.tri,
+                pt: &self.pt,
+                fans: &self.fans,
+                cos_feature: self.cos_feature,
+                area_eps: self.area_eps,
+                keep_corners: self.options.keep_corners,
+                lock_boundary: self.options.lock_boundary,
+            },
+            plan: &mut self.plan,
+            marks: &mut self.marks,
+            gen: &mut self.gen,
         }
-        self.gen
     }
 
     /// The class of point `p` in the current mesh (Schroeder's five classes).
     pub fn classify(&mut self, p: u32) -> VertexClass {
-        match self.build_loop(p) {
-            Ok(()) => self.classify_loop(p).class,
+        let mut e = self.eval();
+        match e.build_loop(p) {
+            Ok(()) => e.classify_loop(p).class,
             Err(_) => VertexClass::Complex,
         }
     }
 
-    /// Fills `plan.q`, `plan.tris`, `plan.ring`, `plan.closed` from the fan of `v`,
-    /// and marks the loop points (generation `plan.gen`, slot = loop index).
-    ///
-    /// Each triangle's record is read once. The fan edge `a → b` of each triangle
-    /// (`(v, a, b)` in its orientation) is linked to the triangle whose edge starts
-    /// at `b` through the marks of the `a` points, so the walk is linear in the
-    /// valence. Refused as complex: a point twice as a start or twice as an end of a
-    /// fan edge, more than one open end, several fans, `v` in its own loop.
+    /// [`Eval::build_loop`] on the current mesh.
     fn build_loop(&mut self, v: u32) -> Result<(), Refusal> {
-        const NEXT: [usize; 3] = [1, 2, 0];
-        const PREV: [usize; 3] = [2, 0, 1];
-        let fan_len = self.pt[v as usize].len as usize;
-        if fan_len == 0 || fan_len > MAX_VALENCE {
-            return Err(Refusal::Kind);
-        }
-        let g = self.next_gen();
-        let s = self.pt[v as usize].start as usize;
-        let plan = &mut self.plan;
-        plan.items.clear();
-        for (i, &t) in self.fans[s..s + fan_len].iter().enumerate() {
-            let tt = &self.tri[t as usize];
-            let k = if tt.p[0] == v {
-                0
-            } else if tt.p[1] == v {
-                1
-            } else {
-                2
-            };
-            let (ka, kb) = (NEXT[k], PREV[k]);
-            let a = tt.p[ka];
-            let pa = &mut self.marks[a as usize];
-            if pa.gen == g {
-                return Err(Refusal::Kind);
-            }
-            pa.gen = g;
-            pa.slot = i as u8;
-            plan.items.push(FanItem {
-                a,
-                b: tt.p[kb],
-                t,
-                wedge: [tt.wedge[k], tt.wedge[ka], tt.wedge[kb]],
-                group: tt.group,
-                err: tt.err,
-                next: u8::MAX,
-            });
-        }
-        // Link each edge to its successor; no point may end two edges.
-        let mut has_pred = 0u64;
-        for i in 0..fan_len {
-            let b = plan.items[i].b;
-            let pb = &self.marks[b as usize];
-            if pb.gen == g {
-                let n = pb.slot;
-                if has_pred & (1u64 << n) != 0 {
-                    return Err(Refusal::Kind);
-                }
-                has_pred |= 1u64 << n;
-                plan.items[i].next = n;
-            }
-        }
-        let starts = fan_len - has_pred.count_ones() as usize;
-        if starts > 1 {
-            return Err(Refusal::Kind);
-        }
-        let first = if starts == 1 {
-            (!has_pred).trailing_zeros() as usize
-        } else {
-            0
-        };
-        plan.q.clear();
-        plan.tris.clear();
-        plan.ring.clear();
-        plan.closed = starts == 0;
-        let mut cur = first;
-        loop {
-            let it = plan.items[cur];
-            plan.q.push(it.a);
-            plan.tris.push(it.t);
-            plan.ring.push(it);
-            match it.next {
-                u8::MAX => {
-                    plan.q.push(it.b);
-                    break;
-                }
-                n if usize::from(n) == first => break,
-                n => {
-                    if plan.tris.len() >= fan_len {
-                        return Err(Refusal::Kind);
-                    }
-                    cur = usize::from(n);
-                }
-            }
-        }
-        if plan.tris.len() != fan_len {
-            // several fans around v
-            return Err(Refusal::Kind);
-        }
-        // Every start point is a distinct loop point (marked above); the open end is
-        // the one point not marked yet. The marks and slots also serve the edge
-        // lookups (`Plan::adjacent`).
-        if !plan.closed {
-            let end = *plan.q.last().unwrap_or(&v);
-            let pe = &mut self.marks[end as usize];
-            if pe.gen == g {
-                return Err(Refusal::Kind);
-            }
-            pe.gen = g;
-        }
-        for (i, &q) in plan.q.iter().enumerate() {
-            if q == v {
-                return Err(Refusal::Kind);
-            }
-            self.marks[q as usize].slot = i as u8;
-        }
-        plan.gen = g;
-        plan.v = v;
-        Ok(())
-    }
-
-    /// Classifies the loop in `plan` and returns the class with the feature spokes
-    /// (loop indices) of an interior edge; fills wedges, positions and normals.
-    fn classify_loop(&mut self, v: u32) -> Shape {
-        let plan = &mut self.plan;
-        let m = plan.q.len();
-        let nt = plan.tris.len();
-        let pv = self.pt[v as usize].pos;
-        plan.pos.clear();
-        plan.pos
-            .extend(plan.q.iter().map(|&q| sub(self.pt[q as usize].pos, pv)));
-        plan.normal.clear();
-        plan.right.clear();
-        plan.left.clear();
-        for i in 0..nt {
-            let j = if i + 1 == m { 0 } else { i + 1 };
-            plan.normal.push(cross(plan.pos[i], plan.pos[j]));
-        }
-        for i in 0..m {
-            let r = if i < nt { plan.ring[i].wedge[1] } else { DEAD };
-            let l = if i > 0 {
-                plan.ring[i - 1].wedge[2]
-            } else if plan.closed {
-                plan.ring[nt - 1].wedge[2]
-            } else {
-                DEAD
-            };
-            plan.right.push(if r == DEAD { l } else { r });
-            plan.left.push(if l == DEAD { r } else { l });
-        }
-        // Features on interior spokes.
-        let mut seams = [0usize; 2];
-        let mut creases = [0usize; 2];
-        let (mut ns, mut nc) = (0, 0);
-        let (lo, hi) = if plan.closed { (0, m) } else { (1, m - 1) };
-        for i in lo..hi {
-            let i0 = if i == 0 { nt - 1 } else { i - 1 };
-            let (f0, f1) = (&plan.ring[i0], &plan.ring[i]);
-            let is_seam =
-                plan.left[i] != plan.right[i] || f0.wedge[0] != f1.wedge[0] || f0.group != f1.group;
-            if is_seam {
-                if ns < 2 {
-                    seams[ns] = i;
-                }
-                ns += 1;
-            } else if is_crease(plan.normal[i0], plan.normal[i], self.cos_feature) {
-                if nc < 2 {
-                    creases[nc] = i;
-                }
-                nc += 1;
-            }
-        }
-        let apart = |f: [usize; 2]| {
-            let d = f[1] - f[0];
-            d != 1 && d != m - 1
-        };
-        let mut shape = Shape {
-            class: VertexClass::Corner,
-            features: [0; 2],
-            split: false,
-            seam_blocked: false,
-        };
-        if !plan.closed {
-            shape.seam_blocked = ns > 0;
-            shape.class = if nc == 0 {
-                VertexClass::Boundary
-            } else {
-                VertexClass::Corner
-            };
-        } else if ns == 0 {
-            if nc == 0 {
-                shape.class = VertexClass::Simple;
-            } else if nc == 2 && apart(creases) {
-                shape.class = VertexClass::InteriorEdge;
-                shape.features = creases;
-                shape.split = true;
-            }
-        } else if ns == 2 && apart(seams) {
-            // The seam (or material border) is the feature line; other creases make
-            // it a corner that is still split along the seam.
-            shape.class = if nc == 0 {
-                VertexClass::InteriorEdge
-            } else {
-                VertexClass::Corner
-            };
-            shape.features = seams;
-            shape.split = true;
-        } else {
-            shape.seam_blocked = true;
-        }
-        shape
+        self.eval().build_loop(v)
     }
 
     /// Evaluates removing `v`: on success `plan` holds the new triangles and the cost.
@@ -955,100 +1113,9 @@ impl VertexRemoval {
         self.evaluate_plan(mode == Mode::Full)
     }
 
-    /// The first part of [`Self::evaluate`]: classification, average plane and the
-    /// lower bounds of the key (`plan.cost`, `plan.delta`); what the second part,
-    /// [`Self::evaluate_plan`], needs is left in `plan`.
+    /// [`Eval::evaluate_bound`] on the current mesh.
     fn evaluate_bound(&mut self, v: u32) -> Result<(), Refusal> {
-        self.plan.shape = None;
-        self.plan.loop_check = LoopCheck::None;
-        if self.pt[v as usize].locked {
-            return Err(Refusal::Kind);
-        }
-        self.build_loop(v)?;
-        let shape = self.classify_loop(v);
-        let (class, features) = (shape.class, shape.features);
-        self.plan.class = Some(class);
-        let open = !self.plan.closed;
-        if shape.seam_blocked {
-            return Err(Refusal::Seam);
-        }
-        if class == VertexClass::Corner && self.options.keep_corners {
-            return Err(Refusal::Kind);
-        }
-        if open && self.options.lock_boundary {
-            return Err(Refusal::Kind);
-        }
-        let m = self.plan.q.len();
-        let nt = self.plan.tris.len();
-        // Existing edges between loop points, found lazily (`Plan::adjacent`, with
-        // the marks of `build_loop`).
-        self.plan.adj.clear();
-        self.plan.adj.resize(m, 0);
-        self.plan.adj_done = 0;
-        // Average plane.
-        let mut area_n = [0.0; 3];
-        let mut area_sum = 0.0;
-        let mut base = [0.0; 3];
-        for i in 0..nt {
-            let n = self.plan.normal[i];
-            let a = norm(n);
-            area_n = add(area_n, n);
-            area_sum += a;
-            let j = if i + 1 == m { 0 } else { i + 1 };
-            let c = scale(add(self.plan.pos[i], self.plan.pos[j]), 1.0 / 3.0);
-            base = add(base, scale(c, a));
-        }
-        if area_sum <= self.area_eps {
-            return Err(Refusal::Degenerate);
-        }
-        let ln = norm(area_n);
-        if ln <= 1e-9 * area_sum {
-            return Err(Refusal::Flip);
-        }
-        let n_avg = scale(area_n, 1.0 / ln);
-        base = scale(base, 1.0 / area_sum);
-        // v sits at the origin of plan.pos.
-        let to_line =
-            |i: usize, j: usize| line_distance([0.0; 3], self.plan.pos[i], self.plan.pos[j]);
-        let schroeder = if open {
-            to_line(0, m - 1)
-        } else if class == VertexClass::InteriorEdge {
-            to_line(features[0], features[1])
-        } else if shape.split {
-            dot(base, n_avg)
-                .abs()
-                .max(to_line(features[0], features[1]))
-        } else {
-            dot(base, n_avg).abs()
-        };
-        // Every new triangle spans loop points, so when all loop points lie on one
-        // side of `v` along `n_avg` the new patch lies in that slab and `v` is at least
-        // the nearest loop point's height from it: a lower bound of every gap below,
-        // and a much tighter one than the average plane on a curved surface.
-        let (mut h_min, mut h_max) = (f64::INFINITY, f64::NEG_INFINITY);
-        for p in &self.plan.pos {
-            let h = dot(*p, n_avg);
-            h_min = h_min.min(h);
-            h_max = h_max.max(h);
-        }
-        let slab = if h_min > 0.0 {
-            h_min
-        } else if h_max < 0.0 {
-            -h_max
-        } else {
-            0.0
-        };
-        let schroeder = schroeder.max(slab);
-        let mut e_fan: f64 = 0.0;
-        for f in &self.plan.ring {
-            e_fan = e_fan.max(f.err);
-        }
-        self.plan.cost = e_fan + schroeder;
-        self.plan.delta = schroeder;
-        self.plan.shape = Some(shape);
-        self.plan.n_avg = n_avg;
-        self.plan.e_fan = e_fan;
-        Ok(())
+        self.eval().evaluate_bound(v)
     }
 
     /// The second part of [`Self::evaluate`], after a successful
@@ -1729,11 +1796,7 @@ impl VertexRemoval {
 
     /// The queue key of the evaluated plan.
     fn key(&self) -> f64 {
-        if self.order_by_bound {
-            self.plan.cost
-        } else {
-            self.plan.delta
-        }
+        plan_key(&self.plan, self.order_by_bound)
     }
 
     /// Queues `v` with the cheap lower bound of its key (`b = 0`), or, when that
@@ -1772,7 +1835,7 @@ impl VertexRemoval {
     /// Queues every point with the cheap lower bound of its key (as
     /// [`Self::push`] with nothing due). The bounds are independent of each other
     /// before the first removal, so with several rayon threads they are computed
-    /// in parallel, by workers with their own copy of the connectivity, and then
+    /// in parallel, by workers that share the mesh and own only their scratch, and then
     /// queued in point order: the queue, and so the run, is the same for any number
     /// of threads.
     fn initial_pass(&mut self, heap: &mut Heap) {
@@ -1792,17 +1855,33 @@ impl VertexRemoval {
             return;
         }
         let chunk = np.div_ceil(threads);
+        let order_by_bound = self.order_by_bound;
+        // The read-only part of the evaluation state, shared by all workers.
+        let view = self.eval().m;
         let results: Vec<Vec<Result<u32, Refusal>>> = (0..threads)
             .into_par_iter()
             .map(|c| {
-                let mut w = self.bound_worker();
+                // The worker's own scratch (the mesh is shared): a plan and 8 bytes a
+                // point of marks, zeroed pages resident only where its loops touch.
+                let mut plan = Plan::default();
+                let mut marks = vec![Mark::default(); np];
+                let mut gen = 0;
+                let mut w = Eval {
+                    m: view,
+                    plan: &mut plan,
+                    marks: &mut marks,
+                    gen: &mut gen,
+                };
                 (c * chunk..np.min((c + 1) * chunk))
                     .map(|v| {
-                        if w.pt[v].len == 0 {
+                        if w.m.pt[v].len == 0 {
                             return Err(Refusal::Kind);
                         }
-                        w.evaluate_bound(v as u32)
-                            .map(|()| Item::default().with_cost(w.key()).cost_bits)
+                        w.evaluate_bound(v as u32).map(|()| {
+                            Item::default()
+                                .with_cost(plan_key(w.plan, order_by_bound))
+                                .cost_bits
+                        })
                     })
                     .collect()
             })
@@ -1826,37 +1905,6 @@ impl VertexRemoval {
                     self.count(r);
                 }
             }
-        }
-    }
-
-    /// A copy of what [`Self::evaluate_bound`] reads and writes, for the parallel
-    /// [`Self::initial_pass`].
-    fn bound_worker(&self) -> Self {
-        Self {
-            tri: self.tri.clone(),
-            has_groups: self.has_groups,
-            pt: self.pt.clone(),
-            marks: vec![Mark::default(); self.marks.len()],
-            fans: self.fans.clone(),
-            fan_garbage: self.fan_garbage,
-            live: self.live,
-            options: self.options,
-            cos_feature: self.cos_feature,
-            area_eps: self.area_eps,
-            plan: Plan::default(),
-            gen: 0,
-            rejections: Rejections::default(),
-            order_by_bound: self.order_by_bound,
-            kept: Vec::new(),
-            kept_tris: Vec::new(),
-            kept_diagonals: Vec::new(),
-            input_tri: Vec::new(),
-            input_normal: Vec::new(),
-            input_tree: None,
-            away: Vec::new(),
-            facing_from: self.facing_from,
-            facing_tier: self.facing_tier,
-            queued: Vec::new(),
         }
     }
 

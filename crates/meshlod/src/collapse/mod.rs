@@ -31,6 +31,7 @@
 //! the existing vertex `v` is the special case `position == v`'s old position.
 
 mod surface;
+pub(crate) use surface::FanCsr;
 
 pub(crate) use surface::closest_on_triangle;
 pub use surface::{BuildOptions, Repair, Surface, DEAD};

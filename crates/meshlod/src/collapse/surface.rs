@@ -14,6 +14,62 @@ pub const DEAD: u32 = u32::MAX;
 /// Extra slots given to every fan when the fan array is (re)built.
 const FAN_SLACK: u32 = 2;
 
+/// Point → triangle fans as one array with room to grow: point `p`'s fan is
+/// `fans[start[p]..start[p] + len[p]]`, in triangle order, with `cap[p] = len[p] +`
+/// [`FAN_SLACK`] slots reserved (unused ones hold [`DEAD`]; none for an unused point).
+/// Shared by the collapse operator's [`Surface`] and vertex removal's own surface.
+pub(crate) struct FanCsr {
+    pub fans: Vec<u32>,
+    pub start: Vec<u32>,
+    pub len: Vec<u32>,
+    pub cap: Vec<u32>,
+}
+
+impl FanCsr {
+    /// Fans of `points` points over `tris`, whose live corners `corners` gives
+    /// (`None` for a dead triangle); triangle ids are positions in `tris`.
+    pub(crate) fn build<T>(
+        points: usize,
+        tris: &[T],
+        corners: impl Fn(&T) -> Option<[u32; 3]>,
+    ) -> Self {
+        let mut len = vec![0u32; points];
+        for t in tris {
+            if let Some(c) = corners(t) {
+                for p in c {
+                    len[p as usize] += 1;
+                }
+            }
+        }
+        let mut start = Vec::with_capacity(points);
+        let mut cap = Vec::with_capacity(points);
+        let mut total = 0u32;
+        for &l in &len {
+            start.push(total);
+            let c = if l == 0 { 0 } else { l + FAN_SLACK };
+            cap.push(c);
+            total += c;
+        }
+        let mut fans = vec![DEAD; total as usize];
+        let mut fill = vec![0u32; points];
+        for (ti, t) in tris.iter().enumerate() {
+            if let Some(c) = corners(t) {
+                for p in c {
+                    let p = p as usize;
+                    fans[(start[p] + fill[p]) as usize] = ti as u32;
+                    fill[p] += 1;
+                }
+            }
+        }
+        Self {
+            fans,
+            start,
+            len: fill,
+            cap,
+        }
+    }
+}
+
 /// Options for [`Surface::build`].
 #[derive(Debug, Clone, Copy, Default)]
 pub struct BuildOptions<'a> {
@@ -283,41 +339,14 @@ impl Surface {
 
     /// Builds the fan CSR from the live triangles.
     fn build_fans(&mut self) {
-        let np = self.pos.len();
-        let mut len = vec![0u32; np];
-        for t in &self.tri {
-            if t[0] != DEAD {
-                for &p in t {
-                    len[p as usize] += 1;
-                }
-            }
-        }
-        let mut start = Vec::with_capacity(np);
-        let mut cap = Vec::with_capacity(np);
-        let mut total = 0u32;
-        for &l in &len {
-            start.push(total);
-            let c = if l == 0 { 0 } else { l + FAN_SLACK };
-            cap.push(c);
-            total += c;
-        }
-        let mut fans = vec![DEAD; total as usize];
-        let mut fill = vec![0u32; np];
-        for (ti, t) in self.tri.iter().enumerate() {
-            if t[0] != DEAD {
-                for &p in t {
-                    let p = p as usize;
-                    fans[(start[p] + fill[p]) as usize] = ti as u32;
-                    fill[p] += 1;
-                }
-            }
-        }
-        self.fan_slot = start
+        let csr = FanCsr::build(self.pos.len(), &self.tri, |t| (t[0] != DEAD).then_some(*t));
+        self.fan_slot = csr
+            .start
             .iter()
-            .zip(fill.iter().zip(cap.iter()))
+            .zip(csr.len.iter().zip(csr.cap.iter()))
             .map(|(&start, (&len, &cap))| FanSlot { start, len, cap })
             .collect();
-        self.fans = fans;
+        self.fans = csr.fans;
         self.fan_garbage = 0;
     }
 

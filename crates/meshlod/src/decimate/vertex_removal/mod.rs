@@ -128,7 +128,7 @@ mod tests;
 
 use super::heap::{Heap, Item};
 use super::{Observer, Outcome, Rejections, StopReason, StopRule};
-use crate::collapse::{Surface, DEAD};
+use crate::collapse::{FanCsr, Surface, DEAD};
 use crate::mesh::VertexKind;
 use crate::metrics::bvh::Bvh;
 use crate::metrics::triangle::closest_point;
@@ -985,41 +985,15 @@ impl VertexRemoval {
     }
 
     fn build_fans(&mut self) {
-        let np = self.pt.len();
-        let mut len = vec![0u32; np];
-        for t in &self.tri {
-            if t.p[0] != DEAD {
-                for &p in &t.p {
-                    len[p as usize] += 1;
-                }
-            }
-        }
-        let mut start = Vec::with_capacity(np);
-        let mut cap = Vec::with_capacity(np);
-        let mut total = 0u32;
-        for &l in &len {
-            start.push(total);
-            let c = if l == 0 { 0 } else { l + 2 };
-            cap.push(c);
-            total += c;
-        }
-        let mut fans = vec![DEAD; total as usize];
-        let mut fill = vec![0u32; np];
-        for (ti, t) in self.tri.iter().enumerate() {
-            if t.p[0] != DEAD {
-                for &p in &t.p {
-                    let p = p as usize;
-                    fans[(start[p] + fill[p]) as usize] = ti as u32;
-                    fill[p] += 1;
-                }
-            }
-        }
+        let csr = FanCsr::build(self.pt.len(), &self.tri, |t| {
+            (t.p[0] != DEAD).then_some(t.p)
+        });
         for (p, pt) in self.pt.iter_mut().enumerate() {
-            pt.start = start[p];
-            pt.len = fill[p];
-            pt.cap = cap[p];
+            pt.start = csr.start[p];
+            pt.len = csr.len[p];
+            pt.cap = csr.cap[p];
         }
-        self.fans = fans;
+        self.fans = csr.fans;
         self.fan_garbage = 0;
     }
 

@@ -278,9 +278,11 @@ struct Plan {
     /// Loop points `q_i`.
     q: Vec<u32>,
     /// The fan's triangles as read by `VertexRemoval::build_loop`: in fan order
-    /// (`items`) and in loop order (`ring[i]` is `tris[i]`).
+    /// (`items`), and the wedges and groups in loop order (`ring[i]` is `tris[i]`).
     items: Vec<FanItem>,
-    ring: Vec<FanItem>,
+    ring: Vec<RingItem>,
+    /// The largest error bound of the fan's triangles (set by `build_loop`).
+    ring_err: f64,
     /// `tris[i]` = triangle `(v, q_i, q_{i+1})`.
     tris: Vec<u32>,
     /// Whether the loop is closed.
@@ -291,6 +293,8 @@ struct Plan {
     /// Positions of `q_i` (local f64) and twice-area normals of `tris[i]`.
     pos: Vec<[f64; 3]>,
     normal: Vec<[f64; 3]>,
+    /// Squared lengths of `normal`.
+    n2: Vec<f64>,
     /// Original area-weighted normals of `tris[i]` (see `VertexRemoval::origin`) and
     /// their sum.
     origin: Vec<[f64; 3]>,
@@ -339,6 +343,14 @@ struct FanItem {
     err: f64,
     /// Fan index of the triangle whose edge starts at `b` (`u8::MAX`: none).
     next: u8,
+}
+
+/// What the classification reads of a fan triangle, in loop order.
+#[derive(Debug, Clone, Copy, Default)]
+struct RingItem {
+    /// Wedges of `v`, `a` and `b` in the triangle.
+    wedge: [u32; 3],
+    group: u32,
 }
 
 /// One point's record.
@@ -608,12 +620,22 @@ impl Eval<'_> {
         plan.tris.clear();
         plan.ring.clear();
         plan.closed = starts == 0;
+        let mut e_fan: f64 = 0.0;
         let mut cur = first;
         loop {
-            let it = plan.items[cur];
+            let it = &plan.items[cur];
+            // The marks' slots become loop indices (for `Plan::adjacent`).
+            if it.a == v {
+                return Err(Refusal::Kind);
+            }
+            self.marks[it.a as usize].slot = plan.q.len() as u8;
             plan.q.push(it.a);
             plan.tris.push(it.t);
-            plan.ring.push(it);
+            plan.ring.push(RingItem {
+                wedge: it.wedge,
+                group: it.group,
+            });
+            e_fan = e_fan.max(it.err);
             match it.next {
                 u8::MAX => {
                     plan.q.push(it.b);
@@ -633,22 +655,17 @@ impl Eval<'_> {
             return Err(Refusal::Kind);
         }
         // Every start point is a distinct loop point (marked above); the open end is
-        // the one point not marked yet. The marks and slots also serve the edge
-        // lookups (`Plan::adjacent`).
+        // the one point not marked yet.
         if !plan.closed {
             let end = *plan.q.last().unwrap_or(&v);
             let pe = &mut self.marks[end as usize];
-            if pe.gen == g {
+            if end == v || pe.gen == g {
                 return Err(Refusal::Kind);
             }
             pe.gen = g;
+            pe.slot = (plan.q.len() - 1) as u8;
         }
-        for (i, &q) in plan.q.iter().enumerate() {
-            if q == v {
-                return Err(Refusal::Kind);
-            }
-            self.marks[q as usize].slot = i as u8;
-        }
+        plan.ring_err = e_fan;
         plan.gen = g;
         plan.v = v;
         Ok(())
@@ -662,15 +679,22 @@ impl Eval<'_> {
         let nt = plan.tris.len();
         let pv = self.m.pt[v as usize].pos;
         plan.pos.clear();
+        let pt = self.m.pt;
         plan.pos
-            .extend(plan.q.iter().map(|&q| sub(self.m.pt[q as usize].pos, pv)));
+            .extend(plan.q.iter().map(|&q| sub(pt[q as usize].pos, pv)));
         plan.normal.clear();
         plan.right.clear();
         plan.left.clear();
-        for i in 0..nt {
-            let j = if i + 1 == m { 0 } else { i + 1 };
-            plan.normal.push(cross(plan.pos[i], plan.pos[j]));
+        {
+            let pos = &plan.pos;
+            plan.normal
+                .extend(pos.windows(2).map(|w| cross(w[0], w[1])));
+            if plan.closed {
+                plan.normal.push(cross(pos[m - 1], pos[0]));
+            }
         }
+        plan.n2.clear();
+        plan.n2.extend(plan.normal.iter().map(|&n| dot(n, n)));
         for i in 0..m {
             let r = if i < nt { plan.ring[i].wedge[1] } else { DEAD };
             let l = if i > 0 {
@@ -698,7 +722,12 @@ impl Eval<'_> {
                     seams[ns] = i;
                 }
                 ns += 1;
-            } else if is_crease(plan.normal[i0], plan.normal[i], self.m.cos_feature) {
+            } else if is_crease(
+                plan.normal[i0],
+                plan.normal[i],
+                plan.n2[i0] * plan.n2[i],
+                self.m.cos_feature,
+            ) {
                 if nc < 2 {
                     creases[nc] = i;
                 }
@@ -782,7 +811,7 @@ impl Eval<'_> {
         let mut base = [0.0; 3];
         for i in 0..nt {
             let n = self.plan.normal[i];
-            let a = norm(n);
+            let a = self.plan.n2[i].sqrt();
             area_n = add(area_n, n);
             area_sum += a;
             let j = if i + 1 == m { 0 } else { i + 1 };
@@ -830,10 +859,7 @@ impl Eval<'_> {
             0.0
         };
         let schroeder = schroeder.max(slab);
-        let mut e_fan: f64 = 0.0;
-        for f in &self.plan.ring {
-            e_fan = e_fan.max(f.err);
-        }
+        let e_fan = self.plan.ring_err;
         self.plan.cost = e_fan + schroeder;
         self.plan.delta = schroeder;
         self.plan.shape = Some(shape);
@@ -865,10 +891,11 @@ fn slack_bits(bits: u32, slack: f64) -> u32 {
 }
 
 /// Whether two triangles with (unnormalised) normals `n0` and `n1` meet at a
-/// dihedral angle whose cosine is below `cos_feature`.
+/// dihedral angle whose cosine is below `cos_feature`; `n2` is
+/// `dot(n0, n0) * dot(n1, n1)`.
 #[inline]
-fn is_crease(n0: [f64; 3], n1: [f64; 3], cos_feature: f64) -> bool {
-    dot(n0, n1) < cos_feature * (dot(n0, n0) * dot(n1, n1)).sqrt()
+fn is_crease(n0: [f64; 3], n1: [f64; 3], n2: f64, cos_feature: f64) -> bool {
+    dot(n0, n1) < cos_feature * n2.sqrt()
 }
 
 #[inline]

@@ -1440,13 +1440,15 @@ impl Accumulation<'_> {
         let mut cells_of = [[0u32; 3]; BLOCK];
         let mut planes = Block::new();
         let n = mesh.triangles.len();
+        // One worker owning every cell (the sequential path) visits every triangle.
+        if self.spans.is_none() && start == 0 {
+            return self.run_all::<QUADRIC>(part, used);
+        }
         if let Some(u) = used {
             for &v in mesh.triangles.as_flattened() {
                 u[v as usize] = true;
             }
         }
-        // One worker owning every cell (the sequential path) visits every triangle.
-        let every = self.spans.is_none() && start == 0;
         for (b, first) in (0..n).step_by(BLOCK).enumerate() {
             if let Some(spans) = self.spans {
                 let (lo, hi) = spans[b];
@@ -1456,19 +1458,11 @@ impl Accumulation<'_> {
             }
             let last = (first + BLOCK).min(n);
             let mut m = 0;
-            if every {
-                for (i, tri) in mesh.triangles[first..last].iter().enumerate() {
-                    which[i] = (first + i) as u32;
-                    cells_of[i] = tri.map(|v| vcell[v as usize]);
-                }
-                m = last - first;
-            } else {
-                for t in first..last {
-                    let c = mesh.triangles[t].map(|v| vcell[v as usize]);
-                    which[m] = t as u32;
-                    cells_of[m] = c;
-                    m += usize::from(owned(c[0]) | owned(c[1]) | owned(c[2]));
-                }
+            for t in first..last {
+                let c = mesh.triangles[t].map(|v| vcell[v as usize]);
+                which[m] = t as u32;
+                cells_of[m] = c;
+                m += usize::from(owned(c[0]) | owned(c[1]) | owned(c[2]));
             }
             prepare_block(
                 m,
@@ -1484,6 +1478,45 @@ impl Accumulation<'_> {
                     })
                 });
                 add_triangle::<QUADRIC>(part, start, c, plane, w);
+            }
+        }
+    }
+
+    /// [`Self::run`] for one worker owning every cell: every triangle in order, its
+    /// cells gathered (and its vertices marked in `used`) where its corners are read.
+    fn run_all<const QUADRIC: bool>(&self, accs: &mut [Acc], mut used: Option<&mut [bool]>) {
+        let mesh = self.mesh;
+        let nv = mesh.positions.len();
+        // One length for the three per-vertex arrays: one bounds check per index.
+        let vcell = &self.vcell[..nv];
+        let positions = &mesh.positions[..nv];
+        let mut used = used.as_deref_mut().map(|u| &mut u[..nv]);
+        let mut cells_of = [[0u32; 3]; BLOCK];
+        let mut planes = Block::new();
+        for tris in mesh.triangles.chunks(BLOCK) {
+            let m = tris.len();
+            prepare_block(
+                m,
+                |i| {
+                    let tri = tris[i];
+                    cells_of[i] = tri.map(|v| vcell[v as usize]);
+                    if let Some(u) = used.as_deref_mut() {
+                        for v in tri {
+                            u[v as usize] = true;
+                        }
+                    }
+                    tri.map(|v| positions[v as usize])
+                },
+                self.origin,
+                &mut planes,
+            );
+            for (i, &c) in cells_of[..m].iter().enumerate() {
+                let plane = &planes.plane(i);
+                let w = corner_weights(plane, self.how, |k| {
+                    self.factors
+                        .map_or(1.0, |f| f64::from(f[tris[i][k] as usize]))
+                });
+                add_triangle::<QUADRIC>(accs, 0, c, plane, w);
             }
         }
     }

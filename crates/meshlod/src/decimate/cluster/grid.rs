@@ -422,6 +422,11 @@ impl TripleSet {
         Self(s)
     }
 
+    /// Empties the set, sized for about `expected` triples (the memory is reused).
+    pub fn reset(&mut self, expected: usize) {
+        self.0.reset(expected);
+    }
+
     /// Inserts the triple `t` (any order); `true` when it was not there yet. The
     /// entries must be distinct and not `u32::MAX`.
     #[inline]

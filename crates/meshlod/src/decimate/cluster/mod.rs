@@ -625,6 +625,9 @@ pub fn cluster_mesh(
         triples: KeyTriples::default(),
         distinct: Vec::new(),
         distinct_cell: f64::NAN,
+        first_only: false,
+        three: 0,
+        exact: TripleSet::with_capacity(0),
     };
     let (mut out, search_passes, builds) =
         drive(lo, hi, diag, target, options, area, &mut pipeline);
@@ -1008,36 +1011,38 @@ fn count_distinct(
     set.len()
 }
 
-/// [`count_distinct`] (sequential, recording) on 4-byte cells (`cells[v]` the
-/// [`Grid::linear_u32`] index of vertex `v`): the triangles with three distinct
-/// cells are found first (their indices written branch-free), then only they are
-/// gathered again and hashed. The same count and record.
+/// [`count_distinct`] (sequential) on 4-byte cells (`cells[v]` the
+/// [`Grid::linear_u32`] index of vertex `v`), exactly: the triangles with three
+/// distinct cells are found first (their indices written branch-free), then only
+/// they are gathered again and put in an exact set of cell triples. `record` keeps
+/// the first triangle over each triple, in order. Returns the count (the triples)
+/// and the number of triangles with three distinct cells.
 fn count_small(
     tris: &[[u32; 3]],
     cells: &[u32],
-    set: &mut KeyTriples,
+    set: &mut TripleSet,
     goal: usize,
     record: &mut Vec<u32>,
-) -> usize {
+) -> (usize, usize) {
     set.reset(goal + goal / 4);
     record.clear();
     let cell = |v: u32| cells.get(v as usize).copied().unwrap_or(0);
+    // Chunks of 256 triangles: the buffer cannot fill within one, so the loop has
+    // no flush test (the index is masked, which the compiler sees is in bounds).
     let mut idx = [0u32; 256];
-    let mut m = 0;
-    for (t, tri) in tris.iter().enumerate() {
-        let k = tri.map(cell);
-        idx[m] = t as u32;
-        m += usize::from((k[0] != k[1]) & (k[1] != k[2]) & (k[0] != k[2]));
-        if m == idx.len() {
-            record.extend_from_slice(&idx);
-            m = 0;
+    for (c, chunk) in tris.chunks(256).enumerate() {
+        let base = (c * 256) as u32;
+        let mut m = 0usize;
+        for (i, tri) in chunk.iter().enumerate() {
+            let (a, b, d) = (cell(tri[0]), cell(tri[1]), cell(tri[2]));
+            idx[m & 255] = base + i as u32;
+            m += usize::from((a != b) & (b != d) & (a != d));
         }
+        record.extend_from_slice(&idx[..m]);
     }
-    record.extend_from_slice(&idx[..m]);
-    for &t in record.iter() {
-        set.insert(tris[t as usize].map(|v| u64::from(cell(v))));
-    }
-    set.len()
+    let three = record.len();
+    record.retain(|&t| set.insert(tris[t as usize].map(cell)));
+    (record.len(), three)
 }
 
 /// Expected occupied cells for about `triangles` output triangles (about two
@@ -1126,9 +1131,15 @@ struct InMemory<'a> {
     keys_cell: f64,
     triples: KeyTriples,
     /// The triangles with three distinct cells on the grid of side `distinct_cell`
-    /// (the last probe's), in order.
+    /// (the last probe's), in order; when `first_only`, only the first of the
+    /// triangles over each cell triple (the probe deduplicated them exactly), and
+    /// `three` counts them all.
     distinct: Vec<u32>,
     distinct_cell: f64,
+    first_only: bool,
+    three: usize,
+    /// The exact set of cell triples of the sequential probes on small grids.
+    exact: TripleSet,
 }
 
 /// An in-memory first stage.
@@ -1183,8 +1194,11 @@ impl Pipeline for InMemory<'_> {
         self.keys_for(grid);
         let (tris, keys, small) = (&self.mesh.triangles, &self.keys, &self.small);
         let sequential = tris.len() < PAR_COUNT || rayon::current_num_threads() == 1;
-        let c = if small_grid(grid) && sequential {
-            count_small(tris, small, &mut self.triples, goal, &mut self.distinct)
+        self.first_only = small_grid(grid) && sequential;
+        let c = if self.first_only {
+            let (c, three) = count_small(tris, small, &mut self.exact, goal, &mut self.distinct);
+            self.three = three;
+            c
         } else if small_grid(grid) {
             count_distinct(
                 tris.len(),
@@ -1227,20 +1241,39 @@ impl Pipeline for InMemory<'_> {
         } else {
             self.keys.iter().map(|&k| table.id(k)).collect()
         };
-        let (mut stage1, mut set) = Stage1::new(expect);
         let cells_of = |t: usize| mesh.triangles[t].map(|v| vcell[v as usize]);
-        if self.distinct_cell.to_bits() == grid.cell.to_bits() {
-            // The last probe was on this grid: only its triangles with three distinct
-            // cells (distinct keys are distinct ids) can be kept.
-            for &t in &self.distinct {
-                stage1.push(&mut set, cells_of(t as usize), mesh.group(t as usize));
+        let same = self.distinct_cell.to_bits() == grid.cell.to_bits();
+        let stage1 = if same && self.first_only {
+            // The last probe was on this grid and kept the first triangle over each
+            // cell triple (distinct linear indices are distinct ids): the first
+            // stage, without a set.
+            let n = self.distinct.len();
+            let mut cells = Vec::with_capacity(expect.max(n));
+            cells.extend(self.distinct.iter().map(|&t| cells_of(t as usize)));
+            let mut groups = Vec::with_capacity(expect.max(n));
+            groups.extend(self.distinct.iter().map(|&t| mesh.group(t as usize)));
+            Stage1 {
+                cells,
+                groups,
+                collapsed: mesh.triangles.len() - self.three,
+                duplicates: self.three - n,
             }
-            stage1.collapsed = mesh.triangles.len() - self.distinct.len();
         } else {
-            for t in 0..mesh.triangles.len() {
-                stage1.push(&mut set, cells_of(t), mesh.group(t));
+            let (mut stage1, mut set) = Stage1::new(expect);
+            if same {
+                // The last probe was on this grid: only its triangles with three
+                // distinct cells (distinct keys are distinct ids) can be kept.
+                for &t in &self.distinct {
+                    stage1.push(&mut set, cells_of(t as usize), mesh.group(t as usize));
+                }
+                stage1.collapsed = mesh.triangles.len() - self.distinct.len();
+            } else {
+                for t in 0..mesh.triangles.len() {
+                    stage1.push(&mut set, cells_of(t), mesh.group(t));
+                }
             }
-        }
+            stage1
+        };
         let got = stage1.cells.len();
         (
             MemStaged {
@@ -1787,45 +1820,42 @@ impl EdgeCounts {
 /// valence, and the triangle corners at both ends of an edge are joined
 /// (union–find over corners), so a vertex's fans are its corners that remain roots.
 fn edge_counts(triangles: &[[u32; 3]], vertices: usize) -> EdgeCounts {
-    // Counting sort of the sides by smaller end, then each bucket by (larger end,
-    // triangle).
-    let mut start = vec![0u32; vertices + 1];
+    // Counting sort of the sides by smaller end: `end[v]` first counts the sides of
+    // `v`'s bucket, then (prefix sums) is the bucket's end; placing a side moves it
+    // down, so that it ends as the bucket's start (`end[v + 1]` its end). The order
+    // within a bucket does not matter.
+    let mut end = vec![0u32; vertices + 1];
     for tri in triangles {
         for k in 0..3 {
-            start[tri[k].min(tri[(k + 1) % 3]) as usize + 1] += 1;
+            let k1 = if k == 2 { 0 } else { k + 1 };
+            end[tri[k].min(tri[k1]) as usize] += 1;
         }
     }
-    for v in 0..vertices {
-        start[v + 1] += start[v];
+    let mut sum = 0;
+    for e in &mut end {
+        sum += *e;
+        *e = sum;
     }
-    let mut fill = start.clone();
-    // Each side as one key: its larger end (high 32 bits), then the corner `3t + k`
-    // of its smaller end and one bit telling whether the larger end's corner follows
-    // it in the triangle (`k + 1`) or precedes it (`k + 2`, mod 3). (`3t` stays
-    // below 2³¹: the corners are `u32` and a mesh has fewer than 2³¹/3 triangles in
-    // memory.)
-    let mut bucketed = vec![0u64; 3 * triangles.len()];
+    // Each side: its larger end, and the corners (`3t + k`) at its smaller and at
+    // its larger end. (`3t` stays below 2³²: the corners are `u32` and a mesh has
+    // fewer than 2³²/3 triangles in memory.)
+    let mut sides = vec![[0u32; 3]; 3 * triangles.len()];
     for (t, tri) in triangles.iter().enumerate() {
+        let c = 3 * t as u32;
         for k in 0..3 {
             let k1 = if k == 2 { 0 } else { k + 1 };
             let (a, b) = (tri[k], tri[k1]);
-            let (small, key) = if a < b {
-                (a, (u64::from(b) << 32) | (((3 * t + k) as u64) << 1) | 1)
+            let (ca, cb) = (c + k as u32, c + k1 as u32);
+            let (small, side) = if a < b {
+                (a, [b, ca, cb])
             } else {
-                (b, (u64::from(a) << 32) | (((3 * t + k1) as u64) << 1))
+                (b, [a, cb, ca])
             };
-            let slot = &mut fill[small as usize];
-            bucketed[*slot as usize] = key;
-            *slot += 1;
+            let slot = &mut end[small as usize];
+            *slot -= 1;
+            sides[*slot as usize] = side;
         }
     }
-    // The corners (smaller end, larger end) of a side's key.
-    let corners = |key: u64| -> (u32, u32) {
-        let cs = (key as u32) >> 1;
-        let k = cs % 3;
-        let step = if key & 1 == 1 { 1 } else { 2 };
-        (cs, cs - k + (k + step) % 3)
-    };
     let mut parent: Vec<u32> = (0..3 * triangles.len() as u32).collect();
     fn find(parent: &mut [u32], mut x: u32) -> u32 {
         while parent[x as usize] != x {
@@ -1841,59 +1871,47 @@ fn edge_counts(triangles: &[[u32; 3]], vertices: usize) -> EdgeCounts {
             parent[ra.max(rb) as usize] = ra.min(rb);
         }
     };
-    let mut bad = vec![false; vertices];
-    let mut counts = EdgeCounts {
-        non_manifold_edges: 0,
-        non_manifold_vertices: 0,
-        boundary_edges: 0,
-    };
+    let mut counts = EdgeCounts::default();
+    // Per vertex: its fans (corners left as roots) plus 2 when it is on a
+    // non-manifold edge, so that it is non-manifold exactly when this is at least 2.
+    let mut fans = vec![0u32; vertices];
     // Per larger end `b` while the bucket of `a` is scanned: the bucket that last
-    // saw it (`a + 1`; 0 = none), the key of the edge's first side and the number of
-    // its sides. No sort: the later sides of an edge are joined to its first one.
-    let mut seen = vec![0u32; vertices];
-    let mut first = vec![0u64; vertices];
-    let mut sides = vec![0u32; vertices];
+    // saw it (`a + 1`; 0 = none), the edge's first side and its number of sides.
+    // No sort: the later sides of an edge are joined to its first one.
+    let mut seen = vec![[0u32; 3]; vertices];
     for a in 0..vertices {
-        let bucket = &bucketed[start[a] as usize..start[a + 1] as usize];
+        let bucket = &sides[end[a] as usize..end[a + 1] as usize];
         let stamp = a as u32 + 1;
-        for &key in bucket {
-            let b = (key >> 32) as usize;
-            if seen[b] != stamp {
-                seen[b] = stamp;
-                first[b] = key;
-                sides[b] = 1;
+        for (i, side) in bucket.iter().enumerate() {
+            let s = &mut seen[side[0] as usize];
+            if s[0] != stamp {
+                *s = [stamp, i as u32, 1];
             } else {
-                sides[b] += 1;
-                let ((c0a, c0b), (ca, cb)) = (corners(first[b]), corners(key));
-                union(&mut parent, c0a, ca);
-                union(&mut parent, c0b, cb);
+                s[2] += 1;
+                let first = bucket[s[1] as usize];
+                union(&mut parent, first[1], side[1]);
+                union(&mut parent, first[2], side[2]);
             }
         }
         // Each edge once: its count is taken (reset to 0) at its first side.
-        for &key in bucket {
-            let b = (key >> 32) as usize;
-            match std::mem::take(&mut sides[b]) {
+        for side in bucket {
+            let b = side[0] as usize;
+            match std::mem::take(&mut seen[b][2]) {
                 0 | 2 => {}
                 1 => counts.boundary_edges += 1,
                 _ => {
                     counts.non_manifold_edges += 1;
-                    bad[a] = true;
-                    bad[b] = true;
+                    fans[a] += 2;
+                    fans[b] += 2;
                 }
             }
         }
     }
-    let mut fans = vec![0u32; vertices];
-    for (t, tri) in triangles.iter().enumerate() {
-        for (k, &v) in tri.iter().enumerate() {
-            // A root of the union–find is its own parent: no search needed.
-            let c = (3 * t + k) as u32;
-            if parent[c as usize] == c {
-                fans[v as usize] += 1;
-            }
-        }
+    // A root of the union–find is its own parent: no search needed.
+    for (c, (&p, &v)) in parent.iter().zip(triangles.as_flattened()).enumerate() {
+        fans[v as usize] += u32::from(p == c as u32);
     }
-    counts.non_manifold_vertices = (0..vertices).filter(|&v| bad[v] || fans[v] > 1).count();
+    counts.non_manifold_vertices = fans.iter().filter(|&&f| f > 1).count();
     counts
 }
 

@@ -66,9 +66,12 @@
 //! # Target triangle count
 //! With a target instead of a cell size, ε is searched. Each probe is one pass: the
 //! cell key of every vertex, then the triangles with three distinct cells, copies
-//! over the same three cells counted once (a set of 64-bit hashes of the sorted
-//! cell triples): the exact count of the first clean-up stage, up to hash collisions
-//! (about `n²/2⁶⁵`). ε starts from the projected area `P` (the areas of the
+//! over the same three cells counted once: the exact count of the first clean-up
+//! stage. In memory on one thread (grids of at most 2³² cells) the set holds the
+//! sorted cell triples themselves and the first triangle over each triple is
+//! recorded, which is the first stage when the build is on the probe's grid;
+//! otherwise it holds 64-bit hashes of them (exact up to collisions, about
+//! `n²/2⁶⁵`). ε starts from the projected area `P` (the areas of the
 //! triangles' projections on the three coordinate planes, estimated on at most 8192
 //! triangles): a surface meets about `P/ε²` cells whatever its orientation, and the
 //! probe count is about `1.74·P/ε²` on the shared test meshes (1.55–1.87), so the
@@ -94,9 +97,10 @@
 //! Cell ids come from a flat array over the grid when the grid is small (in memory:
 //! at most eight grid cells per vertex; streamed: sixteen per expected occupied
 //! cell, so memory stays proportional to the occupied cells), from open addressing
-//! otherwise. Triangle planes are computed a block of 64 at a time (square roots
-//! and divisions in loops of their own, the quadric entries where they are added),
-//! bit for bit as one at a time. The output's
+//! otherwise. The sequential accumulation computes each triangle's plane where it
+//! adds it (one pass: cells, used vertices, corners); the parallel workers compute
+//! the planes of a block of 64 triangles at a time (square roots and divisions in
+//! loops of their own), bit for bit the same. The output's
 //! manifold counts sort its edge sides per vertex (linear in the output).
 //!
 //! # Parallelism and determinism
@@ -1524,33 +1528,19 @@ impl Accumulation<'_> {
         let vcell = &self.vcell[..nv];
         let positions = &mesh.positions[..nv];
         let mut used = used.as_deref_mut().map(|u| &mut u[..nv]);
-        let mut cells_of = [[0u32; 3]; BLOCK];
-        let mut planes = Block::new();
-        for tris in mesh.triangles.chunks(BLOCK) {
-            let m = tris.len();
-            prepare_block(
-                m,
-                |i| {
-                    let tri = tris[i];
-                    cells_of[i] = tri.map(|v| vcell[v as usize]);
-                    if let Some(u) = used.as_deref_mut() {
-                        for v in tri {
-                            u[v as usize] = true;
-                        }
-                    }
-                    tri.map(|v| positions[v as usize])
-                },
-                self.origin,
-                &mut planes,
-            );
-            for (i, &c) in cells_of[..m].iter().enumerate() {
-                let plane = &planes.plane(i);
-                let w = corner_weights(plane, self.how, |k| {
-                    self.factors
-                        .map_or(1.0, |f| f64::from(f[tris[i][k] as usize]))
-                });
-                add_triangle::<QUADRIC>(accs, 0, c, plane, w);
+        for (t, tri) in mesh.triangles.iter().enumerate() {
+            let c = tri.map(|v| vcell[v as usize]);
+            if let Some(u) = used.as_deref_mut() {
+                for &v in tri {
+                    u[v as usize] = true;
+                }
             }
+            let plane = &Prepared::new(&tri.map(|v| positions[v as usize]), self.origin);
+            let w = corner_weights(plane, self.how, |k| {
+                self.factors
+                    .map_or(1.0, |f| f64::from(f[mesh.triangles[t][k] as usize]))
+            });
+            add_triangle::<QUADRIC>(accs, 0, c, plane, w);
         }
     }
 }

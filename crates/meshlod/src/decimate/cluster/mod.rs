@@ -873,12 +873,6 @@ fn projected_area_of(t: &[[f32; 3]; 3]) -> f64 {
     0.5 * (c[0].abs() + c[1].abs() + c[2].abs())
 }
 
-#[inline]
-fn area_of(t: &[[f32; 3]; 3]) -> f64 {
-    let c = edge_cross(t);
-    0.5 * (c[0] * c[0] + c[1] * c[1] + c[2] * c[2]).sqrt()
-}
-
 /// The cross product of the triangle's edges from its first corner, in `f64`.
 #[inline]
 fn edge_cross(t: &[[f32; 3]; 3]) -> [f64; 3] {
@@ -1379,25 +1373,30 @@ impl Pipeline for InMemory<'_> {
         let n_out = out.mesh.positions.len();
         let closest = |range: std::ops::Range<usize>| {
             let mut best = vec![(f64::INFINITY, u32::MAX); n_out];
-            for v in range {
-                if !used[v] {
+            // Slices of one length per index kind: one bounds check each.
+            let outp = &out.mesh.positions[..n_out];
+            let best_of = &mut best[..n_out];
+            let of_cell = &out.vertex_of_cell[..];
+            let start = range.start;
+            let own = used[range.clone()]
+                .iter()
+                .zip(&vcell[range.clone()])
+                .zip(&mesh.positions[range]);
+            for (i, ((&u, &c), p)) in own.enumerate() {
+                if !u {
                     continue;
                 }
-                let o = out.vertex_of_cell[vcell[v] as usize];
-                if o == u32::MAX {
+                let o = of_cell[c as usize] as usize;
+                if o >= n_out {
                     continue;
                 }
-                let r = out.mesh.positions[o as usize];
-                let p = mesh.positions[v];
-                let d: f64 = (0..3)
-                    .map(|k| {
-                        let x = f64::from(p[k]) - f64::from(r[k]);
-                        x * x
-                    })
-                    .sum();
-                let b = &mut best[o as usize];
+                let r = outp[o];
+                let x = [0, 1, 2].map(|k| f64::from(p[k]) - f64::from(r[k]));
+                // The sum in this order (a sum from ±0 adds the same).
+                let d = x[0] * x[0] + x[1] * x[1] + x[2] * x[2];
+                let b = &mut best_of[o];
                 if d < b.0 {
-                    *b = (d, v as u32);
+                    *b = (d, (start + i) as u32);
                 }
             }
             best
@@ -1712,14 +1711,18 @@ fn finish(
     let mut groups = Vec::with_capacity(stage1.cells.len());
     let mut flattened = 0;
     let mut duplicates = stage1.duplicates;
+    // One length for the per-cell arrays: one bounds check per cell.
+    let point_of = &weld.point_of[..positions.len()];
     for (c, &g) in stage1.cells.iter().zip(&stage1.groups) {
-        let p = c.map(|x| weld.point_of[x as usize]);
+        let p = c.map(|x| point_of[x as usize]);
         if p[0] == p[1] || p[1] == p[2] || p[0] == p[2] {
             flattened += 1;
             continue;
         }
         let pos = c.map(|x| positions[x as usize]);
-        if area_of(&pos) == 0.0 {
+        // Zero area is a zero cross product (the square root changes nothing).
+        let e = edge_cross(&pos);
+        if e[0] * e[0] + e[1] * e[1] + e[2] * e[2] == 0.0 {
             flattened += 1;
             continue;
         }

@@ -1520,13 +1520,13 @@ impl Accumulation<'_> {
 
     /// [`Self::run`] for one worker owning every cell: every triangle in order, its
     /// cells gathered (and its vertices marked in `used`) where its corners are read.
-    fn run_all<const QUADRIC: bool>(&self, accs: &mut [Acc], mut used: Option<&mut [bool]>) {
+    fn run_all<const QUADRIC: bool>(&self, accs: &mut [Acc], used: Option<&mut [bool]>) {
         let mesh = self.mesh;
         let nv = mesh.positions.len();
         // One length for the three per-vertex arrays: one bounds check per index.
         let vcell = &self.vcell[..nv];
         let positions = &mesh.positions[..nv];
-        let mut used = used.as_deref_mut().map(|u| &mut u[..nv]);
+        let mut used = used.map(|u| &mut u[..nv]);
         for (t, tri) in mesh.triangles.iter().enumerate() {
             let c = tri.map(|v| vcell[v as usize]);
             if let Some(u) = used.as_deref_mut() {

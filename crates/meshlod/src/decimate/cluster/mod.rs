@@ -1870,33 +1870,33 @@ fn edge_counts(triangles: &[[u32; 3]], vertices: usize) -> EdgeCounts {
     let mut fans = vec![0u32; vertices];
     // Per larger end `b` while the bucket of `a` is scanned: the bucket that last
     // saw it (`a + 1`; 0 = none), the edge's first side and its number of sides.
-    // No sort: the later sides of an edge are joined to its first one.
+    // No sort: the later sides of an edge are joined to its first one, and the
+    // counts follow the sides as they come (one side: boundary; a second: not;
+    // a third: non-manifold).
     let mut seen = vec![[0u32; 3]; vertices];
     for a in 0..vertices {
         let bucket = &sides[end[a] as usize..end[a + 1] as usize];
         let stamp = a as u32 + 1;
         for (i, side) in bucket.iter().enumerate() {
-            let s = &mut seen[side[0] as usize];
+            let b = side[0] as usize;
+            let s = &mut seen[b];
             if s[0] != stamp {
                 *s = [stamp, i as u32, 1];
+                counts.boundary_edges += 1;
             } else {
                 s[2] += 1;
+                match s[2] {
+                    2 => counts.boundary_edges -= 1,
+                    3 => {
+                        counts.non_manifold_edges += 1;
+                        fans[a] += 2;
+                        fans[b] += 2;
+                    }
+                    _ => {}
+                }
                 let first = bucket[s[1] as usize];
                 union(&mut parent, first[1], side[1]);
                 union(&mut parent, first[2], side[2]);
-            }
-        }
-        // Each edge once: its count is taken (reset to 0) at its first side.
-        for side in bucket {
-            let b = side[0] as usize;
-            match std::mem::take(&mut seen[b][2]) {
-                0 | 2 => {}
-                1 => counts.boundary_edges += 1,
-                _ => {
-                    counts.non_manifold_edges += 1;
-                    fans[a] += 2;
-                    fans[b] += 2;
-                }
             }
         }
     }

@@ -318,11 +318,15 @@ impl Mesh {
                 }
             }
         }
+        // `n` fits in a `u32` (checked above). A count of the indices at or above it
+        // rather than their maximum: baseline x86-64 (SSE2) has no unsigned 32-bit
+        // maximum, but compares and sums vectorise.
+        let n32 = n as u32;
         let out_of_range = self
             .triangles
             .as_flattened()
             .chunks(4096)
-            .any(|c| c.iter().fold(0u32, |m, &i| m.max(i)) as usize >= n);
+            .any(|c| c.iter().fold(0u32, |m, &i| m + u32::from(i >= n32)) != 0);
         if out_of_range {
             for (triangle, t) in self.triangles.iter().enumerate() {
                 for &index in t {

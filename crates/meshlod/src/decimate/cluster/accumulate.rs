@@ -49,7 +49,10 @@ impl Prepared {
     /// and `e = −c·p₀`: one division for all.
     #[inline]
     fn from_parts(p: [[f64; 3]; 3], c: [f64; 3], len: f64, inv: f64) -> Self {
-        if len > 0.0 && len.is_finite() {
+        // `len > 0 && len < ∞` written so that it stays two comparisons (as a
+        // class test it compiles to some twenty integer instructions): a positive
+        // length has a positive inverse unless it is infinite.
+        if len > 0.0 && inv > 0.0 {
             let s = 0.5 * inv;
             let e = -(c[0] * p[0][0] + c[1] * p[0][1] + c[2] * p[0][2]);
             let sc = c.map(|x| s * x);
@@ -127,7 +130,7 @@ impl Block {
 #[inline]
 pub(crate) fn prepare_block(
     n: usize,
-    corners: impl Fn(usize) -> [[f32; 3]; 3],
+    mut corners: impl FnMut(usize) -> [[f32; 3]; 3],
     origin: [f64; 3],
     out: &mut Block,
 ) {

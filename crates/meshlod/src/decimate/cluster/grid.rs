@@ -327,9 +327,16 @@ trait SlotKey: Copy + PartialEq {
 
 impl SlotKey for [u32; 3] {
     const EMPTY: Self = [u32::MAX; 3];
+    /// One multiply per entry by odd constants (the fractional part of the golden
+    /// ratio and two others), then the high half folded onto the low bits the
+    /// table indexes with: cheaper than finalising each entry, and the sets are
+    /// only asked about membership (never iterated), so the hash decides nothing.
     #[inline]
     fn slot_hash(self) -> u64 {
-        mix((u64::from(self[0]) << 32 | u64::from(self[1])) ^ mix(u64::from(self[2])))
+        let h = u64::from(self[0]).wrapping_mul(0x9e37_79b9_7f4a_7c15)
+            ^ u64::from(self[1]).wrapping_mul(0xc2b2_ae3d_27d4_eb4f)
+            ^ u64::from(self[2]).wrapping_mul(0x1656_67b1_9e37_79f9);
+        h ^ (h >> 29) ^ (h >> 47)
     }
 }
 
@@ -420,6 +427,11 @@ impl TripleSet {
         let mut s = OpenSet::default();
         s.reset(expected);
         Self(s)
+    }
+
+    /// Empties the set, sized for about `expected` triples (the memory is reused).
+    pub fn reset(&mut self, expected: usize) {
+        self.0.reset(expected);
     }
 
     /// Inserts the triple `t` (any order); `true` when it was not there yet. The

@@ -66,9 +66,12 @@
 //! # Target triangle count
 //! With a target instead of a cell size, ε is searched. Each probe is one pass: the
 //! cell key of every vertex, then the triangles with three distinct cells, copies
-//! over the same three cells counted once (a set of 64-bit hashes of the sorted
-//! cell triples): the exact count of the first clean-up stage, up to hash collisions
-//! (about `n²/2⁶⁵`). ε starts from the projected area `P` (the areas of the
+//! over the same three cells counted once: the exact count of the first clean-up
+//! stage. In memory on one thread (grids of at most 2³² cells) the set holds the
+//! sorted cell triples themselves and the first triangle over each triple is
+//! recorded, which is the first stage when the build is on the probe's grid;
+//! otherwise it holds 64-bit hashes of them (exact up to collisions, about
+//! `n²/2⁶⁵`). ε starts from the projected area `P` (the areas of the
 //! triangles' projections on the three coordinate planes, estimated on at most 8192
 //! triangles): a surface meets about `P/ε²` cells whatever its orientation, and the
 //! probe count is about `1.74·P/ε²` on the shared test meshes (1.55–1.87), so the
@@ -94,9 +97,10 @@
 //! Cell ids come from a flat array over the grid when the grid is small (in memory:
 //! at most eight grid cells per vertex; streamed: sixteen per expected occupied
 //! cell, so memory stays proportional to the occupied cells), from open addressing
-//! otherwise. Triangle planes are computed a block of 64 at a time (square roots
-//! and divisions in loops of their own, the quadric entries where they are added),
-//! bit for bit as one at a time. The output's
+//! otherwise. The sequential accumulation computes each triangle's plane where it
+//! adds it (one pass: cells, used vertices, corners); the parallel workers compute
+//! the planes of a block of 64 triangles at a time (square roots and divisions in
+//! loops of their own), bit for bit the same. The output's
 //! manifold counts sort its edge sides per vertex (linear in the output).
 //!
 //! # Parallelism and determinism
@@ -625,6 +629,9 @@ pub fn cluster_mesh(
         triples: KeyTriples::default(),
         distinct: Vec::new(),
         distinct_cell: f64::NAN,
+        first_only: false,
+        three: 0,
+        exact: TripleSet::with_capacity(0),
     };
     let (mut out, search_passes, builds) =
         drive(lo, hi, diag, target, options, area, &mut pipeline);
@@ -866,12 +873,6 @@ fn projected_area_of(t: &[[f32; 3]; 3]) -> f64 {
     0.5 * (c[0].abs() + c[1].abs() + c[2].abs())
 }
 
-#[inline]
-fn area_of(t: &[[f32; 3]; 3]) -> f64 {
-    let c = edge_cross(t);
-    0.5 * (c[0] * c[0] + c[1] * c[1] + c[2] * c[2]).sqrt()
-}
-
 /// The cross product of the triangle's edges from its first corner, in `f64`.
 #[inline]
 fn edge_cross(t: &[[f32; 3]; 3]) -> [f64; 3] {
@@ -1008,36 +1009,38 @@ fn count_distinct(
     set.len()
 }
 
-/// [`count_distinct`] (sequential, recording) on 4-byte cells (`cells[v]` the
-/// [`Grid::linear_u32`] index of vertex `v`): the triangles with three distinct
-/// cells are found first (their indices written branch-free), then only they are
-/// gathered again and hashed. The same count and record.
+/// [`count_distinct`] (sequential) on 4-byte cells (`cells[v]` the
+/// [`Grid::linear_u32`] index of vertex `v`), exactly: the triangles with three
+/// distinct cells are found first (their indices written branch-free), then only
+/// they are gathered again and put in an exact set of cell triples. `record` keeps
+/// the first triangle over each triple, in order. Returns the count (the triples)
+/// and the number of triangles with three distinct cells.
 fn count_small(
     tris: &[[u32; 3]],
     cells: &[u32],
-    set: &mut KeyTriples,
+    set: &mut TripleSet,
     goal: usize,
     record: &mut Vec<u32>,
-) -> usize {
+) -> (usize, usize) {
     set.reset(goal + goal / 4);
     record.clear();
     let cell = |v: u32| cells.get(v as usize).copied().unwrap_or(0);
+    // Chunks of 256 triangles: the buffer cannot fill within one, so the loop has
+    // no flush test (the index is masked, which the compiler sees is in bounds).
     let mut idx = [0u32; 256];
-    let mut m = 0;
-    for (t, tri) in tris.iter().enumerate() {
-        let k = tri.map(cell);
-        idx[m] = t as u32;
-        m += usize::from((k[0] != k[1]) & (k[1] != k[2]) & (k[0] != k[2]));
-        if m == idx.len() {
-            record.extend_from_slice(&idx);
-            m = 0;
+    for (c, chunk) in tris.chunks(256).enumerate() {
+        let base = (c * 256) as u32;
+        let mut m = 0usize;
+        for (i, tri) in chunk.iter().enumerate() {
+            let (a, b, d) = (cell(tri[0]), cell(tri[1]), cell(tri[2]));
+            idx[m & 255] = base + i as u32;
+            m += usize::from((a != b) & (b != d) & (a != d));
         }
+        record.extend_from_slice(&idx[..m]);
     }
-    record.extend_from_slice(&idx[..m]);
-    for &t in record.iter() {
-        set.insert(tris[t as usize].map(|v| u64::from(cell(v))));
-    }
-    set.len()
+    let three = record.len();
+    record.retain(|&t| set.insert(tris[t as usize].map(cell)));
+    (record.len(), three)
 }
 
 /// Expected occupied cells for about `triangles` output triangles (about two
@@ -1126,9 +1129,15 @@ struct InMemory<'a> {
     keys_cell: f64,
     triples: KeyTriples,
     /// The triangles with three distinct cells on the grid of side `distinct_cell`
-    /// (the last probe's), in order.
+    /// (the last probe's), in order; when `first_only`, only the first of the
+    /// triangles over each cell triple (the probe deduplicated them exactly), and
+    /// `three` counts them all.
     distinct: Vec<u32>,
     distinct_cell: f64,
+    first_only: bool,
+    three: usize,
+    /// The exact set of cell triples of the sequential probes on small grids.
+    exact: TripleSet,
 }
 
 /// An in-memory first stage.
@@ -1183,8 +1192,11 @@ impl Pipeline for InMemory<'_> {
         self.keys_for(grid);
         let (tris, keys, small) = (&self.mesh.triangles, &self.keys, &self.small);
         let sequential = tris.len() < PAR_COUNT || rayon::current_num_threads() == 1;
-        let c = if small_grid(grid) && sequential {
-            count_small(tris, small, &mut self.triples, goal, &mut self.distinct)
+        self.first_only = small_grid(grid) && sequential;
+        let c = if self.first_only {
+            let (c, three) = count_small(tris, small, &mut self.exact, goal, &mut self.distinct);
+            self.three = three;
+            c
         } else if small_grid(grid) {
             count_distinct(
                 tris.len(),
@@ -1227,20 +1239,39 @@ impl Pipeline for InMemory<'_> {
         } else {
             self.keys.iter().map(|&k| table.id(k)).collect()
         };
-        let (mut stage1, mut set) = Stage1::new(expect);
         let cells_of = |t: usize| mesh.triangles[t].map(|v| vcell[v as usize]);
-        if self.distinct_cell.to_bits() == grid.cell.to_bits() {
-            // The last probe was on this grid: only its triangles with three distinct
-            // cells (distinct keys are distinct ids) can be kept.
-            for &t in &self.distinct {
-                stage1.push(&mut set, cells_of(t as usize), mesh.group(t as usize));
+        let same = self.distinct_cell.to_bits() == grid.cell.to_bits();
+        let stage1 = if same && self.first_only {
+            // The last probe was on this grid and kept the first triangle over each
+            // cell triple (distinct linear indices are distinct ids): the first
+            // stage, without a set.
+            let n = self.distinct.len();
+            let mut cells = Vec::with_capacity(expect.max(n));
+            cells.extend(self.distinct.iter().map(|&t| cells_of(t as usize)));
+            let mut groups = Vec::with_capacity(expect.max(n));
+            groups.extend(self.distinct.iter().map(|&t| mesh.group(t as usize)));
+            Stage1 {
+                cells,
+                groups,
+                collapsed: mesh.triangles.len() - self.three,
+                duplicates: self.three - n,
             }
-            stage1.collapsed = mesh.triangles.len() - self.distinct.len();
         } else {
-            for t in 0..mesh.triangles.len() {
-                stage1.push(&mut set, cells_of(t), mesh.group(t));
+            let (mut stage1, mut set) = Stage1::new(expect);
+            if same {
+                // The last probe was on this grid: only its triangles with three
+                // distinct cells (distinct keys are distinct ids) can be kept.
+                for &t in &self.distinct {
+                    stage1.push(&mut set, cells_of(t as usize), mesh.group(t as usize));
+                }
+                stage1.collapsed = mesh.triangles.len() - self.distinct.len();
+            } else {
+                for t in 0..mesh.triangles.len() {
+                    stage1.push(&mut set, cells_of(t), mesh.group(t));
+                }
             }
-        }
+            stage1
+        };
         let got = stage1.cells.len();
         (
             MemStaged {
@@ -1342,25 +1373,30 @@ impl Pipeline for InMemory<'_> {
         let n_out = out.mesh.positions.len();
         let closest = |range: std::ops::Range<usize>| {
             let mut best = vec![(f64::INFINITY, u32::MAX); n_out];
-            for v in range {
-                if !used[v] {
+            // Slices of one length per index kind: one bounds check each.
+            let outp = &out.mesh.positions[..n_out];
+            let best_of = &mut best[..n_out];
+            let of_cell = &out.vertex_of_cell[..];
+            let start = range.start;
+            let own = used[range.clone()]
+                .iter()
+                .zip(&vcell[range.clone()])
+                .zip(&mesh.positions[range]);
+            for (i, ((&u, &c), p)) in own.enumerate() {
+                if !u {
                     continue;
                 }
-                let o = out.vertex_of_cell[vcell[v] as usize];
-                if o == u32::MAX {
+                let o = of_cell[c as usize] as usize;
+                if o >= n_out {
                     continue;
                 }
-                let r = out.mesh.positions[o as usize];
-                let p = mesh.positions[v];
-                let d: f64 = (0..3)
-                    .map(|k| {
-                        let x = f64::from(p[k]) - f64::from(r[k]);
-                        x * x
-                    })
-                    .sum();
-                let b = &mut best[o as usize];
+                let r = outp[o];
+                let x = [0, 1, 2].map(|k| f64::from(p[k]) - f64::from(r[k]));
+                // The sum in this order (a sum from ±0 adds the same).
+                let d = x[0] * x[0] + x[1] * x[1] + x[2] * x[2];
+                let b = &mut best_of[o];
                 if d < b.0 {
-                    *b = (d, v as u32);
+                    *b = (d, (start + i) as u32);
                 }
             }
             best
@@ -1440,13 +1476,15 @@ impl Accumulation<'_> {
         let mut cells_of = [[0u32; 3]; BLOCK];
         let mut planes = Block::new();
         let n = mesh.triangles.len();
+        // One worker owning every cell (the sequential path) visits every triangle.
+        if self.spans.is_none() && start == 0 {
+            return self.run_all::<QUADRIC>(part, used);
+        }
         if let Some(u) = used {
             for &v in mesh.triangles.as_flattened() {
                 u[v as usize] = true;
             }
         }
-        // One worker owning every cell (the sequential path) visits every triangle.
-        let every = self.spans.is_none() && start == 0;
         for (b, first) in (0..n).step_by(BLOCK).enumerate() {
             if let Some(spans) = self.spans {
                 let (lo, hi) = spans[b];
@@ -1456,19 +1494,11 @@ impl Accumulation<'_> {
             }
             let last = (first + BLOCK).min(n);
             let mut m = 0;
-            if every {
-                for (i, tri) in mesh.triangles[first..last].iter().enumerate() {
-                    which[i] = (first + i) as u32;
-                    cells_of[i] = tri.map(|v| vcell[v as usize]);
-                }
-                m = last - first;
-            } else {
-                for t in first..last {
-                    let c = mesh.triangles[t].map(|v| vcell[v as usize]);
-                    which[m] = t as u32;
-                    cells_of[m] = c;
-                    m += usize::from(owned(c[0]) | owned(c[1]) | owned(c[2]));
-                }
+            for t in first..last {
+                let c = mesh.triangles[t].map(|v| vcell[v as usize]);
+                which[m] = t as u32;
+                cells_of[m] = c;
+                m += usize::from(owned(c[0]) | owned(c[1]) | owned(c[2]));
             }
             prepare_block(
                 m,
@@ -1485,6 +1515,31 @@ impl Accumulation<'_> {
                 });
                 add_triangle::<QUADRIC>(part, start, c, plane, w);
             }
+        }
+    }
+
+    /// [`Self::run`] for one worker owning every cell: every triangle in order, its
+    /// cells gathered (and its vertices marked in `used`) where its corners are read.
+    fn run_all<const QUADRIC: bool>(&self, accs: &mut [Acc], used: Option<&mut [bool]>) {
+        let mesh = self.mesh;
+        let nv = mesh.positions.len();
+        // One length for the three per-vertex arrays: one bounds check per index.
+        let vcell = &self.vcell[..nv];
+        let positions = &mesh.positions[..nv];
+        let mut used = used.map(|u| &mut u[..nv]);
+        for (t, tri) in mesh.triangles.iter().enumerate() {
+            let c = tri.map(|v| vcell[v as usize]);
+            if let Some(u) = used.as_deref_mut() {
+                for &v in tri {
+                    u[v as usize] = true;
+                }
+            }
+            let plane = &Prepared::new(&tri.map(|v| positions[v as usize]), self.origin);
+            let w = corner_weights(plane, self.how, |k| {
+                self.factors
+                    .map_or(1.0, |f| f64::from(f[mesh.triangles[t][k] as usize]))
+            });
+            add_triangle::<QUADRIC>(accs, 0, c, plane, w);
         }
     }
 }
@@ -1656,14 +1711,18 @@ fn finish(
     let mut groups = Vec::with_capacity(stage1.cells.len());
     let mut flattened = 0;
     let mut duplicates = stage1.duplicates;
+    // One length for the per-cell arrays: one bounds check per cell.
+    let point_of = &weld.point_of[..positions.len()];
     for (c, &g) in stage1.cells.iter().zip(&stage1.groups) {
-        let p = c.map(|x| weld.point_of[x as usize]);
+        let p = c.map(|x| point_of[x as usize]);
         if p[0] == p[1] || p[1] == p[2] || p[0] == p[2] {
             flattened += 1;
             continue;
         }
         let pos = c.map(|x| positions[x as usize]);
-        if area_of(&pos) == 0.0 {
+        // Zero area is a zero cross product (the square root changes nothing).
+        let e = edge_cross(&pos);
+        if e[0] * e[0] + e[1] * e[1] + e[2] * e[2] == 0.0 {
             flattened += 1;
             continue;
         }
@@ -1754,45 +1813,42 @@ impl EdgeCounts {
 /// valence, and the triangle corners at both ends of an edge are joined
 /// (union–find over corners), so a vertex's fans are its corners that remain roots.
 fn edge_counts(triangles: &[[u32; 3]], vertices: usize) -> EdgeCounts {
-    // Counting sort of the sides by smaller end, then each bucket by (larger end,
-    // triangle).
-    let mut start = vec![0u32; vertices + 1];
+    // Counting sort of the sides by smaller end: `end[v]` first counts the sides of
+    // `v`'s bucket, then (prefix sums) is the bucket's end; placing a side moves it
+    // down, so that it ends as the bucket's start (`end[v + 1]` its end). The order
+    // within a bucket does not matter.
+    let mut end = vec![0u32; vertices + 1];
     for tri in triangles {
         for k in 0..3 {
-            start[tri[k].min(tri[(k + 1) % 3]) as usize + 1] += 1;
+            let k1 = if k == 2 { 0 } else { k + 1 };
+            end[tri[k].min(tri[k1]) as usize] += 1;
         }
     }
-    for v in 0..vertices {
-        start[v + 1] += start[v];
+    let mut sum = 0;
+    for e in &mut end {
+        sum += *e;
+        *e = sum;
     }
-    let mut fill = start.clone();
-    // Each side as one key: its larger end (high 32 bits), then the corner `3t + k`
-    // of its smaller end and one bit telling whether the larger end's corner follows
-    // it in the triangle (`k + 1`) or precedes it (`k + 2`, mod 3). (`3t` stays
-    // below 2³¹: the corners are `u32` and a mesh has fewer than 2³¹/3 triangles in
-    // memory.)
-    let mut bucketed = vec![0u64; 3 * triangles.len()];
+    // Each side: its larger end, and the corners (`3t + k`) at its smaller and at
+    // its larger end. (`3t` stays below 2³²: the corners are `u32` and a mesh has
+    // fewer than 2³²/3 triangles in memory.)
+    let mut sides = vec![[0u32; 3]; 3 * triangles.len()];
     for (t, tri) in triangles.iter().enumerate() {
+        let c = 3 * t as u32;
         for k in 0..3 {
             let k1 = if k == 2 { 0 } else { k + 1 };
             let (a, b) = (tri[k], tri[k1]);
-            let (small, key) = if a < b {
-                (a, (u64::from(b) << 32) | (((3 * t + k) as u64) << 1) | 1)
+            let (ca, cb) = (c + k as u32, c + k1 as u32);
+            let (small, side) = if a < b {
+                (a, [b, ca, cb])
             } else {
-                (b, (u64::from(a) << 32) | (((3 * t + k1) as u64) << 1))
+                (b, [a, cb, ca])
             };
-            let slot = &mut fill[small as usize];
-            bucketed[*slot as usize] = key;
-            *slot += 1;
+            let slot = &mut end[small as usize];
+            *slot -= 1;
+            sides[*slot as usize] = side;
         }
     }
-    // The corners (smaller end, larger end) of a side's key.
-    let corners = |key: u64| -> (u32, u32) {
-        let cs = (key as u32) >> 1;
-        let k = cs % 3;
-        let step = if key & 1 == 1 { 1 } else { 2 };
-        (cs, cs - k + (k + step) % 3)
-    };
     let mut parent: Vec<u32> = (0..3 * triangles.len() as u32).collect();
     fn find(parent: &mut [u32], mut x: u32) -> u32 {
         while parent[x as usize] != x {
@@ -1808,59 +1864,47 @@ fn edge_counts(triangles: &[[u32; 3]], vertices: usize) -> EdgeCounts {
             parent[ra.max(rb) as usize] = ra.min(rb);
         }
     };
-    let mut bad = vec![false; vertices];
-    let mut counts = EdgeCounts {
-        non_manifold_edges: 0,
-        non_manifold_vertices: 0,
-        boundary_edges: 0,
-    };
-    // Per larger end `b` while the bucket of `a` is scanned: the bucket that last
-    // saw it (`a + 1`; 0 = none), the key of the edge's first side and the number of
-    // its sides. No sort: the later sides of an edge are joined to its first one.
-    let mut seen = vec![0u32; vertices];
-    let mut first = vec![0u64; vertices];
-    let mut sides = vec![0u32; vertices];
-    for a in 0..vertices {
-        let bucket = &bucketed[start[a] as usize..start[a + 1] as usize];
-        let stamp = a as u32 + 1;
-        for &key in bucket {
-            let b = (key >> 32) as usize;
-            if seen[b] != stamp {
-                seen[b] = stamp;
-                first[b] = key;
-                sides[b] = 1;
-            } else {
-                sides[b] += 1;
-                let ((c0a, c0b), (ca, cb)) = (corners(first[b]), corners(key));
-                union(&mut parent, c0a, ca);
-                union(&mut parent, c0b, cb);
-            }
-        }
-        // Each edge once: its count is taken (reset to 0) at its first side.
-        for &key in bucket {
-            let b = (key >> 32) as usize;
-            match std::mem::take(&mut sides[b]) {
-                0 | 2 => {}
-                1 => counts.boundary_edges += 1,
-                _ => {
-                    counts.non_manifold_edges += 1;
-                    bad[a] = true;
-                    bad[b] = true;
-                }
-            }
-        }
-    }
+    let mut counts = EdgeCounts::default();
+    // Per vertex: its fans (corners left as roots) plus 2 when it is on a
+    // non-manifold edge, so that it is non-manifold exactly when this is at least 2.
     let mut fans = vec![0u32; vertices];
-    for (t, tri) in triangles.iter().enumerate() {
-        for (k, &v) in tri.iter().enumerate() {
-            // A root of the union–find is its own parent: no search needed.
-            let c = (3 * t + k) as u32;
-            if parent[c as usize] == c {
-                fans[v as usize] += 1;
+    // Per larger end `b` while the bucket of `a` is scanned: the bucket that last
+    // saw it (`a + 1`; 0 = none), the edge's first side and its number of sides.
+    // No sort: the later sides of an edge are joined to its first one, and the
+    // counts follow the sides as they come (one side: boundary; a second: not;
+    // a third: non-manifold).
+    let mut seen = vec![[0u32; 3]; vertices];
+    for a in 0..vertices {
+        let bucket = &sides[end[a] as usize..end[a + 1] as usize];
+        let stamp = a as u32 + 1;
+        for (i, side) in bucket.iter().enumerate() {
+            let b = side[0] as usize;
+            let s = &mut seen[b];
+            if s[0] != stamp {
+                *s = [stamp, i as u32, 1];
+                counts.boundary_edges += 1;
+            } else {
+                s[2] += 1;
+                match s[2] {
+                    2 => counts.boundary_edges -= 1,
+                    3 => {
+                        counts.non_manifold_edges += 1;
+                        fans[a] += 2;
+                        fans[b] += 2;
+                    }
+                    _ => {}
+                }
+                let first = bucket[s[1] as usize];
+                union(&mut parent, first[1], side[1]);
+                union(&mut parent, first[2], side[2]);
             }
         }
     }
-    counts.non_manifold_vertices = (0..vertices).filter(|&v| bad[v] || fans[v] > 1).count();
+    // A root of the union–find is its own parent: no search needed.
+    for (c, (&p, &v)) in parent.iter().zip(triangles.as_flattened()).enumerate() {
+        fans[v as usize] += u32::from(p == c as u32);
+    }
+    counts.non_manifold_vertices = fans.iter().filter(|&&f| f > 1).count();
     counts
 }
 

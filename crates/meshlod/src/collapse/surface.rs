@@ -815,7 +815,7 @@ impl Surface {
     /// passes of independent loads (what [`Self::check`] walks next), so that their
     /// cache misses overlap. A hint: nothing changes.
     pub fn prefetch_pair(&self, u: u32, v: u32) {
-        crate::isa::dispatch(|| self.prefetch_pair_impl(u, v));
+        crate::isa::dispatch!(self.prefetch_pair_impl(u, v));
     }
 
     #[inline(always)]
@@ -1039,7 +1039,7 @@ impl Surface {
         geo: &Geometry,
         changed: &mut Vec<ChangedTriangle>,
     ) -> Result<usize, Reject> {
-        crate::isa::dispatch(|| self.check_fans_impl(u, v, v_moves, limits, geo, changed))
+        crate::isa::dispatch!(self.check_fans_impl(u, v, v_moves, limits, geo, changed))
     }
 
     #[inline(always)]

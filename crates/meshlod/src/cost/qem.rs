@@ -151,7 +151,7 @@ impl Qem {
         b: u32,
         moves: &Moves,
     ) -> Option<(Choice, f64)> {
-        crate::isa::dispatch(|| self.choose_impl(q, surface, a, b, moves))
+        crate::isa::dispatch!(self.choose_impl(q, surface, a, b, moves))
     }
 
     #[inline(always)]
@@ -428,7 +428,7 @@ mod tests {
                 };
                 let q = qem.quadric(a).sum(&qem.quadric(b));
                 let (base, avx) =
-                    crate::isa::both(|| bits(qem.choose_impl(&q, &surface, a, b, &moves)));
+                    crate::isa::both!(bits(qem.choose_impl(&q, &surface, a, b, &moves)));
                 if let Some(avx) = avx {
                     assert_eq!(base, avx, "pair ({a}, {b})");
                     compared += 1;

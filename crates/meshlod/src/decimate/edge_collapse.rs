@@ -140,7 +140,7 @@ impl<C: CostModel + ?Sized> Driver<'_, C> {
     /// Re-queues the pairs of `v` after it changed. Runs as the AVX2 build where the
     /// CPU has it ([`crate::isa`]; same bits).
     fn push_around(&mut self, v: u32) {
-        crate::isa::dispatch(|| self.push_around_impl(v));
+        crate::isa::dispatch!(self.push_around_impl(v));
     }
 
     #[inline(always)]

@@ -378,7 +378,7 @@ impl Bvh {
     #[must_use]
     pub fn closest(&self, p: V3, hint: Option<u32>) -> Option<Closest> {
         // The AVX2 build where the CPU has it (`crate::isa`; same bits).
-        crate::isa::dispatch(|| self.closest_impl(p, hint))
+        crate::isa::dispatch!(self.closest_impl(p, hint))
     }
 
     #[inline(always)]
@@ -444,7 +444,7 @@ impl Bvh {
     #[must_use]
     pub fn any_near(&self, p: V3, hint: Option<u32>, near: impl Fn(f64) -> bool) -> bool {
         // The AVX2 build where the CPU has it (`crate::isa`; same bits).
-        crate::isa::dispatch(|| self.any_near_impl(p, hint, &near))
+        crate::isa::dispatch!(self.any_near_impl(p, hint, &near))
     }
 
     #[inline(always)]

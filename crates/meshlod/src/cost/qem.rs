@@ -143,6 +143,7 @@ impl Qem {
     /// leaner [`CostModel::evaluate_cost`], so both give the same cost bit for bit.
     ///
     /// Runs as the AVX2 build where the CPU has it ([`crate::isa`]; same bits).
+    #[inline(always)]
     fn choose(
         &self,
         q: &Quadric,
@@ -282,6 +283,7 @@ impl CostModel for Qem {
         })
     }
 
+    #[inline]
     fn evaluate_cost(&self, surface: &Surface, a: u32, b: u32, moves: &Moves) -> Option<f64> {
         let q = self.quadrics[a as usize].sum(&self.quadrics[b as usize]);
         self.choose(&q, surface, a, b, moves).map(|(_, cost)| cost)

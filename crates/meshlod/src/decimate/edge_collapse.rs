@@ -67,6 +67,7 @@ impl<C: CostModel + ?Sized> Driver<'_, C> {
     }
 
     /// The moves of `(a, b)`, restricted to half-edge collapses for a fallback entry.
+    #[inline]
     fn moves(&self, a: u32, b: u32, endpoint_only: bool) -> Option<Moves> {
         let mut m = self.surface.moves(a, b, self.limits.allow_non_edge)?;
         if endpoint_only {
@@ -78,6 +79,7 @@ impl<C: CostModel + ?Sized> Driver<'_, C> {
         Some(m)
     }
 
+    #[inline]
     fn entry_with(&self, a: u32, b: u32, endpoint_only: bool) -> Option<Item> {
         let m = self.moves(a, b, endpoint_only)?;
         let c = self.cost.evaluate_cost(self.surface, a, b, &m)?;

@@ -142,7 +142,8 @@ impl Qem {
     /// cost `q(x)` (clamped at 0): shared by [`CostModel::evaluate`] and the queue's
     /// leaner [`CostModel::evaluate_cost`], so both give the same cost bit for bit.
     ///
-    /// Runs as the AVX2 build where the CPU has it ([`crate::isa`]; same bits).
+    /// Inlined into its callers: the driver's queue loop runs as the AVX2 build where
+    /// the CPU has it ([`crate::isa`]; same bits), and this with it.
     #[inline(always)]
     fn choose(
         &self,
@@ -152,7 +153,7 @@ impl Qem {
         b: u32,
         moves: &Moves,
     ) -> Option<(Choice, f64)> {
-        crate::isa::dispatch!(self.choose_impl(q, surface, a, b, moves))
+        self.choose_impl(q, surface, a, b, moves)
     }
 
     #[inline(always)]
@@ -263,6 +264,7 @@ impl CostModel for Qem {
         });
     }
 
+    #[inline]
     fn evaluate(&self, surface: &Surface, a: u32, b: u32, moves: &Moves) -> Option<Candidate> {
         let q = self.quadrics[a as usize].sum(&self.quadrics[b as usize]);
         let (choice, cost) = self.choose(&q, surface, a, b, moves)?;

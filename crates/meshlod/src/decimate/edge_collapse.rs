@@ -139,14 +139,9 @@ impl<C: CostModel + ?Sized> Driver<'_, C> {
         self.heap.heapify();
     }
 
-    /// Re-queues the pairs of `v` after it changed. Runs as the AVX2 build where the
-    /// CPU has it ([`crate::isa`]; same bits).
-    fn push_around(&mut self, v: u32) {
-        crate::isa::dispatch!(self.push_around_impl(v));
-    }
-
+    /// Re-queues the pairs of `v` after it changed.
     #[inline(always)]
-    fn push_around_impl(&mut self, v: u32) {
+    fn push_around(&mut self, v: u32) {
         let mut nb = std::mem::take(&mut self.scratch);
         self.surface.neighbours(v, &mut nb);
         // Read the neighbours' state in one pass first: their cache misses then
@@ -189,7 +184,21 @@ impl<C: CostModel + ?Sized> Driver<'_, C> {
 /// Simplifies `surface` in place with `cost` and `filters` until `options.stop`
 /// holds or nothing legal is left. `observer` sees the start, every collapse and
 /// periodic progress.
+///
+/// The whole loop, with the cost model's evaluation and the queue inlined into it,
+/// runs as the AVX2 build where the CPU has it ([`crate::isa`]; same bits).
 pub fn run<C: CostModel + ?Sized>(
+    surface: &mut Surface,
+    cost: &mut C,
+    filters: &[&dyn Filter],
+    options: &EdgeCollapseOptions,
+    observer: &mut dyn Observer,
+) -> Outcome {
+    crate::isa::dispatch!(run_impl(surface, cost, filters, options, observer))
+}
+
+#[inline(always)]
+fn run_impl<C: CostModel + ?Sized>(
     surface: &mut Surface,
     cost: &mut C,
     filters: &[&dyn Filter],

@@ -910,7 +910,7 @@ impl Surface {
     /// (dead points, a non-manifold edge, a non-edge pair when `allow_non_edge` is
     /// false, or kinds that may not move along this edge).
     #[must_use]
-    #[inline]
+    #[inline(always)]
     pub fn moves(&self, a: u32, b: u32, allow_non_edge: bool) -> Option<Moves> {
         if a == b || !self.is_alive(a) || !self.is_alive(b) {
             return None;

@@ -264,7 +264,7 @@ impl CostModel for Qem {
         });
     }
 
-    #[inline]
+    #[inline(always)]
     fn evaluate(&self, surface: &Surface, a: u32, b: u32, moves: &Moves) -> Option<Candidate> {
         let q = self.quadrics[a as usize].sum(&self.quadrics[b as usize]);
         let (choice, cost) = self.choose(&q, surface, a, b, moves)?;
@@ -285,7 +285,7 @@ impl CostModel for Qem {
         })
     }
 
-    #[inline]
+    #[inline(always)]
     fn evaluate_cost(&self, surface: &Surface, a: u32, b: u32, moves: &Moves) -> Option<f64> {
         let q = self.quadrics[a as usize].sum(&self.quadrics[b as usize]);
         self.choose(&q, surface, a, b, moves).map(|(_, cost)| cost)

@@ -67,7 +67,7 @@ impl<C: CostModel + ?Sized> Driver<'_, C> {
     }
 
     /// The moves of `(a, b)`, restricted to half-edge collapses for a fallback entry.
-    #[inline]
+    #[inline(always)]
     fn moves(&self, a: u32, b: u32, endpoint_only: bool) -> Option<Moves> {
         let mut m = self.surface.moves(a, b, self.limits.allow_non_edge)?;
         if endpoint_only {
@@ -79,7 +79,7 @@ impl<C: CostModel + ?Sized> Driver<'_, C> {
         Some(m)
     }
 
-    #[inline]
+    #[inline(always)]
     fn entry_with(&self, a: u32, b: u32, endpoint_only: bool) -> Option<Item> {
         let m = self.moves(a, b, endpoint_only)?;
         let c = self.cost.evaluate_cost(self.surface, a, b, &m)?;
@@ -173,6 +173,7 @@ impl<C: CostModel + ?Sized> Driver<'_, C> {
         self.scratch = nb;
     }
 
+    #[inline(always)]
     fn valid(&self, e: &Item) -> bool {
         let (a, b) = (e.a, e.b);
         self.stamp(a, b, e.stamp & 1 == 1) == e.stamp

@@ -108,6 +108,7 @@ impl<C: CostModel + ?Sized> Driver<'_, C> {
     }
 
     /// Queues every edge and extra pair (unordered, then heapified).
+    #[inline(always)]
     fn push_all(&mut self) {
         self.heap.clear();
         let mut nb = std::mem::take(&mut self.scratch);

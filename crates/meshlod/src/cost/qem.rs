@@ -210,6 +210,7 @@ impl CostModel for Qem {
         "qem"
     }
 
+    #[inline(always)]
     fn init(&mut self, surface: &Surface) {
         let n = surface.point_count();
         self.quadrics.clear();

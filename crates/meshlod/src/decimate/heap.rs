@@ -78,6 +78,7 @@ impl Heap {
     }
 
     /// Queues an item.
+    #[inline(always)]
     pub(crate) fn push(&mut self, item: Item) {
         if !self.keys.is_empty() && item.cost_bits <= self.bound {
             let k = (u64::from(item.cost_bits) << 32) | self.band.len() as u64;
@@ -113,30 +114,43 @@ impl Heap {
     }
 
     fn sift_down(&mut self, mut i: usize) {
-        let n = self.keys.len();
-        let k = self.keys[i];
+        let keys = &mut self.keys[..];
+        let n = keys.len();
+        let k = keys[i];
         loop {
             let c0 = 4 * i + 1;
-            if c0 >= n {
-                break;
-            }
-            let mut c = c0;
-            let mut ck = self.keys[c0];
-            for j in c0 + 1..(c0 + 4).min(n) {
-                let kj = self.keys[j];
-                if kj < ck {
-                    ck = kj;
-                    c = j;
+            let (c, ck) = if c0 + 3 < n {
+                // All four children: the smaller of two pairs, then of those
+                // (keys are distinct, so the minimum is unique).
+                let q = &keys[c0..c0 + 4];
+                let (l, lk) = if q[1] < q[0] { (1, q[1]) } else { (0, q[0]) };
+                let (r, rk) = if q[3] < q[2] { (3, q[3]) } else { (2, q[2]) };
+                if rk < lk {
+                    (c0 + r, rk)
+                } else {
+                    (c0 + l, lk)
                 }
-            }
+            } else if c0 < n {
+                let mut c = c0;
+                let mut ck = keys[c0];
+                for (j, &kj) in keys.iter().enumerate().take(n).skip(c0 + 1) {
+                    if kj < ck {
+                        ck = kj;
+                        c = j;
+                    }
+                }
+                (c, ck)
+            } else {
+                break;
+            };
             if ck < k {
-                self.keys[i] = ck;
+                keys[i] = ck;
                 i = c;
             } else {
                 break;
             }
         }
-        self.keys[i] = k;
+        keys[i] = k;
     }
 
     fn heapify_keys(&mut self) {

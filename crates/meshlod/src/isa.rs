@@ -1,19 +1,28 @@
-//! Runtime instruction-set dispatch for the hot `f64` kernels (the quadric
-//! minimiser, the fold-over check, the closest-point query).
+//! Runtime instruction-set dispatch for the hot `f64` code: the edge-collapse
+//! driver's whole queue loop (quadric minimiser, fold-over check, re-queueing),
+//! the closest-point query and the Morton tree build of the orientation repair.
 //!
-//! [`dispatch`] runs a closure compiled a second time with AVX2 (and the BMI, LZCNT
-//! and POPCNT extensions of the same CPU generation) when the CPU has them, else the
-//! baseline x86-64 build. The VEX encodings mostly save register copies and the false
-//! dependencies of the legacy `f32 → f64` conversions and square roots.
+//! `dispatch!` runs an expression compiled a second time with AVX2 (and the BMI,
+//! LZCNT and POPCNT extensions of the same CPU generation) when the CPU has them,
+//! else the baseline x86-64 build. The VEX encodings mostly save register copies and
+//! the false dependencies of the legacy `f32 → f64` conversions and square roots.
+//!
+//! The AVX2 copy only contains what is inlined into it: the expression is wrapped
+//! in an `#[inline(always)]` closure with a single call site, inside the
+//! `#[target_feature]` function, and what it calls should be `#[inline(always)]`
+//! (a plain `#[inline]` function, or a closure that is also called on the baseline
+//! path, stays one out-of-line baseline function, and the "AVX2 copy" is then just
+//! a jump to it — which is how this was until 2026-12-02).
 //!
 //! Results are **bit for bit** those of the baseline build: FMA is deliberately *not*
 //! enabled, and Rust never fuses a multiply and an add on its own, so every
 //! operation rounds exactly as before (the simplifier's outputs were compared
-//! byte for byte). `MESHLOD_NO_AVX2=1` in the environment forces the baseline path.
+//! byte for byte, with and without `MESHLOD_NO_AVX2=1`, which forces the baseline
+//! path).
 //!
 //! This is the crate's only `unsafe`: calling a `#[target_feature]` function is
 //! unsafe because running it on a CPU without the features is undefined behaviour;
-//! [`dispatch`] calls it only after `is_x86_feature_detected!` confirmed each one.
+//! `run_avx2` calls it only after `is_x86_feature_detected!` confirmed each one.
 #![allow(unsafe_code)]
 
 #[cfg(target_arch = "x86_64")]
@@ -84,7 +93,10 @@ pub(crate) fn run_avx2<R>(f: impl FnOnce() -> R) -> Option<R> {
 /// the AVX2 copy.
 macro_rules! dispatch {
     ($e:expr) => {
-        match $crate::isa::run_avx2(#[inline(always)] || $e) {
+        match $crate::isa::run_avx2(
+            #[inline(always)]
+            || $e,
+        ) {
             Some(r) => r,
             None => $e,
         }
@@ -97,7 +109,13 @@ pub(crate) use dispatch;
 #[cfg(test)]
 macro_rules! both {
     ($e:expr) => {
-        ($e, $crate::isa::run_avx2(#[inline(always)] || $e))
+        (
+            $e,
+            $crate::isa::run_avx2(
+                #[inline(always)]
+                || $e,
+            ),
+        )
     };
 }
 #[cfg(test)]

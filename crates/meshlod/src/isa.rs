@@ -1,19 +1,28 @@
-//! Runtime instruction-set dispatch for the hot `f64` kernels (the quadric
-//! minimiser, the fold-over check, the closest-point query).
+//! Runtime instruction-set dispatch for the hot `f64` code: the edge-collapse
+//! driver's whole queue loop (quadric minimiser, fold-over check, re-queueing),
+//! the closest-point query and the Morton tree build of the orientation repair.
 //!
-//! [`dispatch`] runs a closure compiled a second time with AVX2 (and the BMI, LZCNT
-//! and POPCNT extensions of the same CPU generation) when the CPU has them, else the
-//! baseline x86-64 build. The VEX encodings mostly save register copies and the false
-//! dependencies of the legacy `f32 → f64` conversions and square roots.
+//! `dispatch!` runs an expression compiled a second time with AVX2 (and the BMI,
+//! LZCNT and POPCNT extensions of the same CPU generation) when the CPU has them,
+//! else the baseline x86-64 build. The VEX encodings mostly save register copies and
+//! the false dependencies of the legacy `f32 → f64` conversions and square roots.
+//!
+//! The AVX2 copy only contains what is inlined into it: the expression is wrapped
+//! in an `#[inline(always)]` closure with a single call site, inside the
+//! `#[target_feature]` function, and what it calls should be `#[inline(always)]`
+//! (a plain `#[inline]` function, or a closure that is also called on the baseline
+//! path, stays one out-of-line baseline function, and the "AVX2 copy" is then just
+//! a jump to it — which is how this was until 2026-12-02).
 //!
 //! Results are **bit for bit** those of the baseline build: FMA is deliberately *not*
 //! enabled, and Rust never fuses a multiply and an add on its own, so every
 //! operation rounds exactly as before (the simplifier's outputs were compared
-//! byte for byte). `MESHLOD_NO_AVX2=1` in the environment forces the baseline path.
+//! byte for byte, with and without `MESHLOD_NO_AVX2=1`, which forces the baseline
+//! path).
 //!
 //! This is the crate's only `unsafe`: calling a `#[target_feature]` function is
 //! unsafe because running it on a CPU without the features is undefined behaviour;
-//! [`dispatch`] calls it only after `is_x86_feature_detected!` confirmed each one.
+//! `run_avx2` calls it only after `is_x86_feature_detected!` confirmed each one.
 #![allow(unsafe_code)]
 
 #[cfg(target_arch = "x86_64")]
@@ -58,31 +67,59 @@ mod x86 {
     }
 }
 
-/// Runs `f`, as its AVX2 build when the CPU has the features (see the module docs;
-/// the result is the same either way). Kernels passed here should mark what they
-/// call `#[inline]`/`#[inline(always)]`, so it is compiled into the AVX2 copy.
+/// `f()` as its AVX2 build when the CPU has the features, else `None` (the caller
+/// then evaluates the same expression itself: see [`dispatch!`]).
+///
+/// `f` is called in exactly one place, inside the `#[target_feature]` function, so
+/// the compiler inlines the closure there (a closure with two call sites, one of
+/// them the baseline call, stays an out-of-line baseline function and the
+/// "AVX2 copy" would only be a jump to it).
 #[inline(always)]
-pub(crate) fn dispatch<R>(f: impl FnOnce() -> R) -> R {
+pub(crate) fn run_avx2<R>(f: impl FnOnce() -> R) -> Option<R> {
     #[cfg(target_arch = "x86_64")]
     if x86::avx2() {
         // SAFETY: `avx2()` checked every feature `run` enables.
-        return unsafe { x86::run(f) };
+        return Some(unsafe { x86::run(f) });
     }
-    f()
+    #[cfg(not(target_arch = "x86_64"))]
+    let _ = f;
+    None
 }
 
-/// `f` run as the baseline build and, when the CPU has the features, as the AVX2
-/// build: for tests that the two give the same bits.
-#[cfg(test)]
-pub(crate) fn both<R>(f: impl Fn() -> R) -> (R, Option<R>) {
-    let base = f();
-    #[cfg(target_arch = "x86_64")]
-    if x86::avx2() {
-        // SAFETY: `avx2()` checked every feature `run` enables.
-        return (base, Some(unsafe { x86::run(f) }));
-    }
-    (base, None)
+/// Evaluates the expression as its AVX2 build when the CPU has the features, else
+/// as the baseline build (see the module docs; the result is the same either way).
+/// The expression is written out twice, so each build has its own copy: kernels
+/// it calls should be `#[inline]`/`#[inline(always)]`, so they are compiled into
+/// the AVX2 copy.
+macro_rules! dispatch {
+    ($e:expr) => {
+        match $crate::isa::run_avx2(
+            #[inline(always)]
+            || $e,
+        ) {
+            Some(r) => r,
+            None => $e,
+        }
+    };
 }
+pub(crate) use dispatch;
+
+/// The expression run as the baseline build and, when the CPU has the features, as
+/// the AVX2 build: for tests that the two give the same bits.
+#[cfg(test)]
+macro_rules! both {
+    ($e:expr) => {
+        (
+            $e,
+            $crate::isa::run_avx2(
+                #[inline(always)]
+                || $e,
+            ),
+        )
+    };
+}
+#[cfg(test)]
+pub(crate) use both;
 
 #[cfg(test)]
 mod tests {
@@ -90,7 +127,7 @@ mod tests {
     #[test]
     fn dispatch_returns_the_closure_value() {
         let mut calls = 0;
-        let v = super::dispatch(|| {
+        let v = super::dispatch!({
             calls += 1;
             0.1f64 + 0.2
         });

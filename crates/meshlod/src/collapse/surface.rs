@@ -815,7 +815,7 @@ impl Surface {
     /// passes of independent loads (what [`Self::check`] walks next), so that their
     /// cache misses overlap. A hint: nothing changes.
     pub fn prefetch_pair(&self, u: u32, v: u32) {
-        crate::isa::dispatch(|| self.prefetch_pair_impl(u, v));
+        crate::isa::dispatch!(self.prefetch_pair_impl(u, v));
     }
 
     #[inline(always)]
@@ -910,6 +910,7 @@ impl Surface {
     /// (dead points, a non-manifold edge, a non-edge pair when `allow_non_edge` is
     /// false, or kinds that may not move along this edge).
     #[must_use]
+    #[inline(always)]
     pub fn moves(&self, a: u32, b: u32, allow_non_edge: bool) -> Option<Moves> {
         if a == b || !self.is_alive(a) || !self.is_alive(b) {
             return None;
@@ -1039,7 +1040,7 @@ impl Surface {
         geo: &Geometry,
         changed: &mut Vec<ChangedTriangle>,
     ) -> Result<usize, Reject> {
-        crate::isa::dispatch(|| self.check_fans_impl(u, v, v_moves, limits, geo, changed))
+        crate::isa::dispatch!(self.check_fans_impl(u, v, v_moves, limits, geo, changed))
     }
 
     #[inline(always)]

@@ -142,7 +142,9 @@ impl Qem {
     /// cost `q(x)` (clamped at 0): shared by [`CostModel::evaluate`] and the queue's
     /// leaner [`CostModel::evaluate_cost`], so both give the same cost bit for bit.
     ///
-    /// Runs as the AVX2 build where the CPU has it ([`crate::isa`]; same bits).
+    /// Inlined into its callers: the driver's queue loop runs as the AVX2 build where
+    /// the CPU has it ([`crate::isa`]; same bits), and this with it.
+    #[inline(always)]
     fn choose(
         &self,
         q: &Quadric,
@@ -151,7 +153,7 @@ impl Qem {
         b: u32,
         moves: &Moves,
     ) -> Option<(Choice, f64)> {
-        crate::isa::dispatch(|| self.choose_impl(q, surface, a, b, moves))
+        self.choose_impl(q, surface, a, b, moves)
     }
 
     #[inline(always)]
@@ -208,6 +210,7 @@ impl CostModel for Qem {
         "qem"
     }
 
+    #[inline(always)]
     fn init(&mut self, surface: &Surface) {
         let n = surface.point_count();
         self.quadrics.clear();
@@ -262,6 +265,7 @@ impl CostModel for Qem {
         });
     }
 
+    #[inline(always)]
     fn evaluate(&self, surface: &Surface, a: u32, b: u32, moves: &Moves) -> Option<Candidate> {
         let q = self.quadrics[a as usize].sum(&self.quadrics[b as usize]);
         let (choice, cost) = self.choose(&q, surface, a, b, moves)?;
@@ -282,6 +286,7 @@ impl CostModel for Qem {
         })
     }
 
+    #[inline(always)]
     fn evaluate_cost(&self, surface: &Surface, a: u32, b: u32, moves: &Moves) -> Option<f64> {
         let q = self.quadrics[a as usize].sum(&self.quadrics[b as usize]);
         self.choose(&q, surface, a, b, moves).map(|(_, cost)| cost)
@@ -428,7 +433,7 @@ mod tests {
                 };
                 let q = qem.quadric(a).sum(&qem.quadric(b));
                 let (base, avx) =
-                    crate::isa::both(|| bits(qem.choose_impl(&q, &surface, a, b, &moves)));
+                    crate::isa::both!(bits(qem.choose_impl(&q, &surface, a, b, &moves)));
                 if let Some(avx) = avx {
                     assert_eq!(base, avx, "pair ({a}, {b})");
                     compared += 1;

@@ -67,6 +67,7 @@ impl<C: CostModel + ?Sized> Driver<'_, C> {
     }
 
     /// The moves of `(a, b)`, restricted to half-edge collapses for a fallback entry.
+    #[inline(always)]
     fn moves(&self, a: u32, b: u32, endpoint_only: bool) -> Option<Moves> {
         let mut m = self.surface.moves(a, b, self.limits.allow_non_edge)?;
         if endpoint_only {
@@ -78,6 +79,7 @@ impl<C: CostModel + ?Sized> Driver<'_, C> {
         Some(m)
     }
 
+    #[inline(always)]
     fn entry_with(&self, a: u32, b: u32, endpoint_only: bool) -> Option<Item> {
         let m = self.moves(a, b, endpoint_only)?;
         let c = self.cost.evaluate_cost(self.surface, a, b, &m)?;
@@ -106,6 +108,7 @@ impl<C: CostModel + ?Sized> Driver<'_, C> {
     }
 
     /// Queues every edge and extra pair (unordered, then heapified).
+    #[inline(always)]
     fn push_all(&mut self) {
         self.heap.clear();
         let mut nb = std::mem::take(&mut self.scratch);
@@ -137,14 +140,9 @@ impl<C: CostModel + ?Sized> Driver<'_, C> {
         self.heap.heapify();
     }
 
-    /// Re-queues the pairs of `v` after it changed. Runs as the AVX2 build where the
-    /// CPU has it ([`crate::isa`]; same bits).
-    fn push_around(&mut self, v: u32) {
-        crate::isa::dispatch(|| self.push_around_impl(v));
-    }
-
+    /// Re-queues the pairs of `v` after it changed.
     #[inline(always)]
-    fn push_around_impl(&mut self, v: u32) {
+    fn push_around(&mut self, v: u32) {
         let mut nb = std::mem::take(&mut self.scratch);
         self.surface.neighbours(v, &mut nb);
         // Read the neighbours' state in one pass first: their cache misses then
@@ -176,6 +174,7 @@ impl<C: CostModel + ?Sized> Driver<'_, C> {
         self.scratch = nb;
     }
 
+    #[inline(always)]
     fn valid(&self, e: &Item) -> bool {
         let (a, b) = (e.a, e.b);
         self.stamp(a, b, e.stamp & 1 == 1) == e.stamp
@@ -187,7 +186,21 @@ impl<C: CostModel + ?Sized> Driver<'_, C> {
 /// Simplifies `surface` in place with `cost` and `filters` until `options.stop`
 /// holds or nothing legal is left. `observer` sees the start, every collapse and
 /// periodic progress.
+///
+/// The whole loop, with the cost model's evaluation and the queue inlined into it,
+/// runs as the AVX2 build where the CPU has it ([`crate::isa`]; same bits).
 pub fn run<C: CostModel + ?Sized>(
+    surface: &mut Surface,
+    cost: &mut C,
+    filters: &[&dyn Filter],
+    options: &EdgeCollapseOptions,
+    observer: &mut dyn Observer,
+) -> Outcome {
+    crate::isa::dispatch!(run_impl(surface, cost, filters, options, observer))
+}
+
+#[inline(always)]
+fn run_impl<C: CostModel + ?Sized>(
     surface: &mut Surface,
     cost: &mut C,
     filters: &[&dyn Filter],

@@ -202,6 +202,12 @@ impl Bvh {
     /// Panics if a triangle index is out of range (validate the mesh first).
     #[must_use]
     pub fn build_morton(positions: &[[f32; 3]], triangles: &[[u32; 3]]) -> Self {
+        // The AVX2 build where the CPU has it (`crate::isa`; same tree).
+        crate::isa::dispatch!(Self::build_morton_impl(positions, triangles))
+    }
+
+    #[inline(always)]
+    fn build_morton_impl(positions: &[[f32; 3]], triangles: &[[u32; 3]]) -> Self {
         let n = triangles.len();
         let corners = |t: &[u32; 3]| t.map(|i| positions[i as usize]);
         // Centroids (times 3) and their bounds. (Plain loops into sized vectors: the
@@ -378,7 +384,7 @@ impl Bvh {
     #[must_use]
     pub fn closest(&self, p: V3, hint: Option<u32>) -> Option<Closest> {
         // The AVX2 build where the CPU has it (`crate::isa`; same bits).
-        crate::isa::dispatch(|| self.closest_impl(p, hint))
+        crate::isa::dispatch!(self.closest_impl(p, hint))
     }
 
     #[inline(always)]
@@ -444,7 +450,7 @@ impl Bvh {
     #[must_use]
     pub fn any_near(&self, p: V3, hint: Option<u32>, near: impl Fn(f64) -> bool) -> bool {
         // The AVX2 build where the CPU has it (`crate::isa`; same bits).
-        crate::isa::dispatch(|| self.any_near_impl(p, hint, &near))
+        crate::isa::dispatch!(self.any_near_impl(p, hint, &near))
     }
 
     #[inline(always)]

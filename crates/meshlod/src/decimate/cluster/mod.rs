@@ -39,7 +39,7 @@
 //! - [`Representative::Quadric`] (default, Lindstrom 2000): the minimiser of the
 //!   cell's quadric, solved around the area-weighted mean; when the 3×3 system is
 //!   ill-conditioned or the solution leaves the cell, the minimiser of the quadric
-//!   plus `λ‖x − mean‖²` with `λ = 10⁻³·tr(A)` (Tikhonov regularisation toward the
+//!   plus `λ‖x − mean‖²` with `λ = 3·10⁻³·tr(A)` (Tikhonov regularisation toward the
 //!   mean: one positive definite 3×3 solve by cofactors), clamped into the cell.
 //!   Along an eigenvector of `A` with eigenvalue `l` it takes `l/(l + λ)` of the
 //!   full step, so flat directions stay at the mean: the smooth form of Lindstrom's

@@ -9,8 +9,13 @@ const AXIS_BITS: u32 = 21;
 /// Most cells along one axis.
 pub const MAX_CELLS_PER_AXIS: u32 = (1 << AXIS_BITS) - 1;
 
-/// A uniform grid of cubic cells of side `cell`, starting at `origin` (the minimum
-/// corner of the bounding box), `dims` cells along each axis.
+/// Axes spanning fewer cells than this keep the grid's origin at the bounding box's
+/// minimum (see [`Grid::new`]).
+pub const CENTRED_FROM_CELLS: f64 = 8.0;
+
+/// A uniform grid of cubic cells of side `cell`, starting at `origin` (at or below
+/// the minimum corner of the bounding box: see [`Grid::new`]), `dims` cells along
+/// each axis.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Grid {
     /// The minimum corner of the grid, in mesh units.
@@ -28,6 +33,18 @@ impl Grid {
     /// The grid of side `cell` over the box `lo..hi`. The side is raised where needed
     /// so that no axis has more than [`MAX_CELLS_PER_AXIS`] cells; a box of zero size
     /// gets one cell (of side 1 when `cell` is not a positive finite number).
+    ///
+    /// Placement: along an axis the box spans `t = n + f` cells (`n` whole, `f` the
+    /// fraction). When `t` is at least [`CENTRED_FROM_CELLS`] the grid is centred on
+    /// the box with `n + 1` cells when `f ≤ ½` and `n + 2` otherwise, so that both
+    /// faces of the box lie between a quarter and three quarters of the way into
+    /// their outer cells, never on a cell border: the mesh's extreme parts (which
+    /// touch the box) sit near the middle of a cell, where its representative is,
+    /// not at its edge half a cell away (meshoptimizer centres the box's minimum in
+    /// a cell for the same reason, but leaves the maximum face wherever it falls).
+    /// Coarser axes start at `lo`: there the grid's count of triangles jumps by a
+    /// large fraction when the centring flips between `n + 1` and `n + 2` cells, so
+    /// a target count could fall between two grids.
     #[must_use]
     pub fn new(lo: [f64; 3], hi: [f64; 3], cell: f64) -> Self {
         let extent = (0..3).map(|k| hi[k] - lo[k]).fold(0.0f64, f64::max);
@@ -44,17 +61,58 @@ impl Grid {
             cell = 1.0;
         }
         let inv = 1.0 / cell;
+        let origin: [f64; 3] = std::array::from_fn(|k| {
+            let t = (hi[k] - lo[k]) * inv;
+            if !(t >= CENTRED_FROM_CELLS && t < f64::from(MAX_CELLS_PER_AXIS - 2)) {
+                return lo[k];
+            }
+            let f = t - t.floor();
+            let margin = if f <= 0.5 { 1.0 - f } else { 2.0 - f };
+            lo[k] - 0.5 * margin * cell
+        });
         let dims = std::array::from_fn(|k| {
-            let n = ((hi[k] - lo[k]) * inv).floor();
+            let n = ((hi[k] - origin[k]) * inv).floor();
             (n.clamp(0.0, f64::from(MAX_CELLS_PER_AXIS - 1)) as u32) + 1
         });
         Self {
-            origin: lo,
+            origin,
             cell,
             inv,
             dims,
             last: dims.map(|d| f64::from(d - 1)),
         }
+    }
+
+    /// About the smallest cell side whose grid over `lo..hi` has at most `dims`
+    /// cells along every axis ([`Self::new`]'s placement; rounding aside: check the
+    /// dimensions of the grid it gives). A centred axis with `d` cells covers up
+    /// to `d − ½` cells of the box, one starting at `lo` up to `d`.
+    #[must_use]
+    pub fn finest_cell(lo: [f64; 3], hi: [f64; 3], dims: [u32; 3]) -> f64 {
+        (0..3)
+            .map(|k| {
+                let d = f64::from(dims[k]);
+                let span = if d - 0.5 >= CENTRED_FROM_CELLS {
+                    d - 0.5
+                } else {
+                    d
+                };
+                (hi[k] - lo[k]) / span
+            })
+            .fold(0.0f64, f64::max)
+    }
+
+    /// About how many more cells a surface over `lo..hi` meets on the grid of side
+    /// `cell` than on one starting at `lo`: a centred axis has on average half a
+    /// cell more, so a surface spanning the box meets about `Π (1 + ½/tₖ)^⅔` times
+    /// as many cells (`tₖ` the box's extent in cells, over the centred axes).
+    #[must_use]
+    pub fn centring_factor(lo: [f64; 3], hi: [f64; 3], cell: f64) -> f64 {
+        (0..3)
+            .map(|k| (hi[k] - lo[k]) / cell)
+            .filter(|t| *t >= CENTRED_FROM_CELLS && t.is_finite())
+            .map(|t| (1.0 + 0.5 / t).powf(2.0 / 3.0))
+            .product()
     }
 
     /// The integer cell coordinates of a point (clamped into the grid).
@@ -484,6 +542,35 @@ mod tests {
         for c in [[0, 0, 0], [1, 2, 3], [MAX_CELLS_PER_AXIS; 3], [7, 0, 99]] {
             assert_eq!(unpack(pack(c)), c);
         }
+    }
+
+    /// Axes of at least [`CENTRED_FROM_CELLS`] cells are centred with both box faces
+    /// a quarter to three quarters into their outer cells; coarser ones start at
+    /// the box's minimum; every point of the box is in the grid.
+    #[test]
+    fn grid_centres_fine_axes() {
+        // x: 10.2 cells (f ≤ ½: 11 cells, margins 0.4); y: 12.7 (f > ½: 14 cells,
+        // margins 0.65); z: 3.5 cells (coarse: starts at lo).
+        let g = Grid::new([1.0, -2.0, 0.0], [11.2, 10.7, 3.5], 1.0);
+        assert_eq!(g.dims, [11, 14, 4]);
+        let expect = [1.0 - 0.4, -2.0 - 0.65, 0.0];
+        for (o, e) in g.origin.iter().zip(expect) {
+            assert!((o - e).abs() < 1e-12, "{:?}", g.origin);
+        }
+        for (k, (lo, hi)) in [(1.0, 11.2), (-2.0, 10.7)].into_iter().enumerate() {
+            let first = (lo - g.origin[k]) / g.cell;
+            let last = (hi - g.origin[k]) / g.cell - f64::from(g.dims[k] - 1);
+            assert!((0.25..=0.75).contains(&first), "axis {k}: {first}");
+            assert!((0.25..=0.75).contains(&last), "axis {k}: {last}");
+        }
+        assert_eq!(g.coords([1.0, -2.0, 0.0]), [0, 0, 0]);
+        assert_eq!(g.coords([11.2, 10.7, 3.5]), [10, 13, 3]);
+        // The finest side with these dimensions has them; a little finer has more.
+        let lo = [1.0, -2.0, 0.0];
+        let hi = [11.2, 10.7, 3.5];
+        let e = Grid::finest_cell(lo, hi, g.dims) * (1.0 + 1e-9);
+        assert_eq!(Grid::new(lo, hi, e).dims, g.dims);
+        assert_ne!(Grid::new(lo, hi, e * 0.999).dims, g.dims);
     }
 
     #[test]

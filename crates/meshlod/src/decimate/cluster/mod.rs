@@ -6,7 +6,11 @@
 //! streaming (triangle-soup, one pass) formulation:
 //!
 //! 1. a uniform grid of cubic cells of side ε covers the bounding box (of all
-//!    vertices; the grid starts at its minimum corner);
+//!    vertices); along every axis the box spans at least 8 cells on, the grid is
+//!    centred so that the box's faces lie a quarter to three quarters into their
+//!    outer cells (the mesh's extreme parts near the middle of a cell, where its
+//!    representative is), along coarser axes it starts at the box's minimum
+//!    ([`Grid::new`]);
 //! 2. every vertex goes to its cell; all vertices of a cell become the cell's
 //!    *representative*;
 //! 3. a triangle whose three corners fall in three different cells becomes a
@@ -39,7 +43,7 @@
 //! - [`Representative::Quadric`] (default, Lindstrom 2000): the minimiser of the
 //!   cell's quadric, solved around the area-weighted mean; when the 3×3 system is
 //!   ill-conditioned or the solution leaves the cell, the minimiser of the quadric
-//!   plus `λ‖x − mean‖²` with `λ = 10⁻³·tr(A)` (Tikhonov regularisation toward the
+//!   plus `λ‖x − mean‖²` with `λ = 3·10⁻³·tr(A)` (Tikhonov regularisation toward the
 //!   mean: one positive definite 3×3 solve by cofactors), clamped into the cell.
 //!   Along an eigenvector of `A` with eigenvalue `l` it takes `l/(l + λ)` of the
 //!   full step, so flat directions stay at the mean: the smooth form of Lindstrom's
@@ -466,8 +470,7 @@ impl Search {
     /// inside the bracket, or, with one side only, a step assuming count ∝ ε⁻².
     ///
     /// On coarse grids the count jumps where a cell count along an axis changes
-    /// (the grid starts at the box's minimum corner, so a whole row of cells
-    /// appears). When the two sides of the bracket differ in cell counts, the
+    /// (a whole row of cells appears, or a centred axis shifts by half a cell). When the two sides of the bracket differ in cell counts, the
     /// smallest ε with the coarse side's cell counts is probed first: it gives that
     /// side its most triangles, the candidate closest to the goal from below.
     fn next(&self, goal: usize) -> Option<f64> {
@@ -479,10 +482,7 @@ impl Search {
                 }
                 let coarse = Grid::new(self.lo, self.hi, el).dims;
                 if Grid::new(self.lo, self.hi, es).dims != coarse {
-                    let edge = (0..3)
-                        .map(|k| (self.hi[k] - self.lo[k]) / f64::from(coarse[k]))
-                        .fold(0.0f64, f64::max)
-                        * (1.0 + 1e-9);
+                    let edge = Grid::finest_cell(self.lo, self.hi, coarse) * (1.0 + 1e-9);
                     let probed = self
                         .probes
                         .iter()
@@ -749,7 +749,10 @@ fn drive<P: Pipeline>(
         }
     };
     let eps0 = if area > 0.0 && target > 0 {
-        (PROJECTED_DENSITY * area / target as f64).sqrt()
+        // The density was measured on grids starting at the box's minimum: a
+        // centred grid meets a few % more cells at the same side.
+        let e = (PROJECTED_DENSITY * area / target as f64).sqrt();
+        e * Grid::centring_factor(lo, hi, e).sqrt()
     } else {
         0.01 * diag.max(f64::MIN_POSITIVE)
     };

@@ -112,11 +112,13 @@ impl Grid {
     #[must_use]
     pub fn cover_factor(lo: [f64; 3], hi: [f64; 3], cell: f64) -> f64 {
         let grid = Self::new(lo, hi, cell);
-        (0..3)
+        let r: f64 = (0..3)
             .map(|k| ((hi[k] - lo[k]) * grid.inv, f64::from(grid.dims[k])))
             .filter(|(t, _)| *t >= 1.0 && t.is_finite())
-            .map(|(t, d)| (d / (t + 0.5)).powf(2.0 / 3.0))
-            .product()
+            .map(|(t, d)| d / (t + 0.5))
+            .product();
+        let c = r.cbrt();
+        c * c
     }
 
     /// The integer cell coordinates of a point (clamped into the grid).

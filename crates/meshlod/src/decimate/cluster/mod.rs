@@ -906,15 +906,18 @@ fn model_step(lo: [f64; 3], hi: [f64; 3], kp: f64, goal: usize, from: f64, to: f
         return None;
     }
     const STEPS: usize = 256;
-    let g = (goal as f64).ln();
-    let ratio = (to / from).ln();
+    let g = goal as f64;
+    let step = (to / from).powf(1.0 / STEPS as f64);
     let mut best: Option<(f64, f64)> = None;
-    for i in 0..=STEPS {
-        let e = from * (ratio * i as f64 / STEPS as f64).exp();
+    let mut e = from;
+    for _ in 0..=STEPS {
         let m = kp / (e * e) * Grid::cover_factor(lo, hi, e);
-        let d = (m.ln() - g).abs();
+        // The larger of m / g and g / m: the distance in log count.
+        let d = (m / g).max(g / m);
+        let here = e;
+        e *= step;
         if best.is_none_or(|b| d < b.1) {
-            best = Some((e, d));
+            best = Some((here, d));
         }
     }
     best.map(|b| b.0)

@@ -102,17 +102,23 @@ impl Grid {
             .fold(0.0f64, f64::max)
     }
 
-    /// About how many more cells a surface over `lo..hi` meets on the grid of side
-    /// `cell` than on one starting at `lo`: a centred axis has on average half a
-    /// cell more, so a surface spanning the box meets about `Π (1 + ½/tₖ)^⅔` times
-    /// as many cells (`tₖ` the box's extent in cells, over the centred axes).
+    /// The count of cells a surface over `lo..hi` meets on the grid of side `cell`,
+    /// relative to the same surface on an average grid: along an axis the box spans
+    /// `t` cells of side `cell` and the grid has `d` cells over it, where a grid
+    /// starting anywhere has `t + ½` on average; a surface spanning the box then
+    /// meets about `Π (dₖ / (tₖ + ½))^⅔` times as many cells (axes of at least one
+    /// cell). This follows the count's jumps where a cell count changes (a row
+    /// appears, or a centred axis goes from `n + 1` to `n + 2` cells).
     #[must_use]
-    pub fn centring_factor(lo: [f64; 3], hi: [f64; 3], cell: f64) -> f64 {
-        (0..3)
-            .map(|k| (hi[k] - lo[k]) / cell)
-            .filter(|t| *t >= CENTRED_FROM_CELLS && t.is_finite())
-            .map(|t| (1.0 + 0.5 / t).powf(2.0 / 3.0))
-            .product()
+    pub fn cover_factor(lo: [f64; 3], hi: [f64; 3], cell: f64) -> f64 {
+        let grid = Self::new(lo, hi, cell);
+        let r: f64 = (0..3)
+            .map(|k| ((hi[k] - lo[k]) * grid.inv, f64::from(grid.dims[k])))
+            .filter(|(t, _)| *t >= 1.0 && t.is_finite())
+            .map(|(t, d)| d / (t + 0.5))
+            .product();
+        let c = r.cbrt();
+        c * c
     }
 
     /// The integer cell coordinates of a point (clamped into the grid).

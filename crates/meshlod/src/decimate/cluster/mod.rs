@@ -78,8 +78,15 @@
 //! `n²/2⁶⁵`). ε starts from the projected area `P` (the areas of the
 //! triangles' projections on the three coordinate planes, estimated on at most 8192
 //! triangles): a surface meets about `P/ε²` cells whatever its orientation, and the
-//! probe count is about `1.74·P/ε²` on the shared test meshes (1.55–1.87), so the
-//! first probe usually lands within 10%. ε then moves by secant steps on `log count`
+//! probe count is about `1.74·P/ε²` on the shared test meshes (1.55–1.87), times
+//! `Π (dₖ / (tₖ + ½))^⅔` for the grid's `dₖ` cells over the box's extent of `tₖ`
+//! cells per axis (a grid placed anywhere has `t + ½` on average; the centred grid
+//! jumps from `n + 1` to `n + 2` cells when the fraction passes ½, the count by up to
+//! 9%). The first guess is the ε within ±8% of `√(1.74·P/goal)` where this model
+//! is closest to the goal, so it avoids the wrong side of a jump; the first probe
+//! then lands within 4.5% on the shared meshes. While all probes lie on one side of
+//! the goal the next is the same model scaled to the nearest probe's count; then ε
+//! moves by secant steps on `log count`
 //! against `log ε` inside the bracket of all probes so far (the count falls roughly
 //! as ε⁻²); where the bracket's two sides differ in cells per axis (the count jumps
 //! there on coarse grids), the smallest ε with the coarse side's cells is probed
@@ -416,6 +423,8 @@ type Probe = (f64, usize);
 struct Search {
     lo: [f64; 3],
     hi: [f64; 3],
+    /// `PROJECTED_DENSITY · P`: the count model's scale (0 when there is no area).
+    kp: f64,
     /// Every probe, `(ε, count)`, in order.
     probes: Vec<(f64, usize)>,
 }
@@ -431,6 +440,7 @@ impl Search {
         Self {
             lo,
             hi,
+            kp: 0.0,
             probes: Vec::new(),
         }
     }
@@ -466,8 +476,22 @@ impl Search {
         (small, large)
     }
 
+    /// The ε in `from..to` where the count model ([`model_step`]), scaled to give
+    /// `count` at the probe `eps`, comes closest to `goal` (`None` without a model:
+    /// no projected area, or an empty probe).
+    fn calibrated(&self, eps: f64, count: usize, goal: usize, from: f64, to: f64) -> Option<f64> {
+        if !self.kp.is_finite() || self.kp <= 0.0 || count == 0 {
+            return None;
+        }
+        let model = self.kp / (eps * eps) * Grid::cover_factor(self.lo, self.hi, eps);
+        let kp = self.kp * count as f64 / model;
+        model_step(self.lo, self.hi, kp, goal, from, to)
+    }
+
     /// The next ε to probe for `goal`: a secant step on `log count` against `log ε`
-    /// inside the bracket, or, with one side only, a step assuming count ∝ ε⁻².
+    /// inside the bracket, or, with one side only, the count model ([`model_step`])
+    /// scaled to that side's closest probe (a step assuming count ∝ ε⁻² without a
+    /// model).
     ///
     /// On coarse grids the count jumps where a cell count along an axis changes
     /// (a whole row of cells appears, or a centred axis shifts by half a cell). When the two sides of the bracket differ in cell counts, the
@@ -504,11 +528,19 @@ impl Search {
                 };
                 Some((ls + t * (ll - ls)).exp())
             }
-            (Some((es, cs)), None) => Some(es * (cs as f64 / g).sqrt().clamp(1.002, 8.0)),
+            (Some((es, cs)), None) => {
+                let plain = es * (cs as f64 / g).sqrt().clamp(1.002, 8.0);
+                Some(
+                    self.calibrated(es, cs, goal, es * 1.002, plain * 1.1)
+                        .unwrap_or(plain),
+                )
+            }
             (None, Some((el, cl))) => Some(if cl == 0 {
                 el / 4.0
             } else {
-                el * (cl as f64 / g).sqrt().clamp(0.125, 0.998)
+                let plain = el * (cl as f64 / g).sqrt().clamp(0.125, 0.998);
+                self.calibrated(el, cl, goal, plain / 1.1, el * 0.998)
+                    .unwrap_or(plain)
             }),
             (None, None) => None,
         }
@@ -749,14 +781,15 @@ fn drive<P: Pipeline>(
         }
     };
     let eps0 = if area > 0.0 && target > 0 {
-        // The density was measured on grids starting at the box's minimum: a
-        // centred grid meets a few % more cells at the same side.
+        // The density was measured on grids starting at the box's minimum (about
+        // t + ½ cells per axis); the model follows the grid's actual cells.
         let e = (PROJECTED_DENSITY * area / target as f64).sqrt();
-        e * Grid::centring_factor(lo, hi, e).sqrt()
+        model_step(lo, hi, PROJECTED_DENSITY * area, target, e / 1.08, e * 1.08).unwrap_or(e)
     } else {
         0.01 * diag.max(f64::MIN_POSITIVE)
     };
     let mut search = Search::new(lo, hi);
+    search.kp = PROJECTED_DENSITY * area;
     let tol = options.tolerance;
     let dist = |n: usize| (n as f64 - target as f64).abs();
     let mut goal = target;
@@ -863,6 +896,32 @@ const AREA_SAMPLE: usize = 8192;
 /// shared meshes at 10% and 1% (bunny, fandisk, armadillo, Lucy, turbine blade,
 /// Nefertiti, ogre, rocker arm): 1.55–1.87.
 const PROJECTED_DENSITY: f64 = 1.74;
+
+/// The cell side in `from..to` (scanned in 256 geometric steps) where the model
+/// count `kp / ε² · cover` ([`Grid::cover_factor`]: the count's jumps where a row of
+/// cells appears or a centred axis flips) comes closest to `goal`; `None` for an
+/// empty range or no model.
+fn model_step(lo: [f64; 3], hi: [f64; 3], kp: f64, goal: usize, from: f64, to: f64) -> Option<f64> {
+    if !(kp > 0.0 && from > 0.0 && to > from && to.is_finite()) || goal == 0 {
+        return None;
+    }
+    const STEPS: usize = 256;
+    let g = goal as f64;
+    let step = (to / from).powf(1.0 / STEPS as f64);
+    let mut best: Option<(f64, f64)> = None;
+    let mut e = from;
+    for _ in 0..=STEPS {
+        let m = kp / (e * e) * Grid::cover_factor(lo, hi, e);
+        // The larger of m / g and g / m: the distance in log count.
+        let d = (m / g).max(g / m);
+        let here = e;
+        e *= step;
+        if best.is_none_or(|b| d < b.1) {
+            best = Some((here, d));
+        }
+    }
+    best.map(|b| b.0)
+}
 
 /// The area of the triangle's projections on the three coordinate planes,
 /// `½(|cₓ| + |c_y| + |c_z|)` for the cross product `c` of its edges: a surface of

@@ -451,3 +451,24 @@ fn stats_merge_sums_counts() {
     assert_eq!(m.max_error, a.max_error.max(b.max_error));
     assert_eq!((m.grid, m.cell_size), (a.grid, a.cell_size));
 }
+
+/// The count model follows the grid's cells: an axis of `t` cells has `t + ½` on
+/// average where the grid starts at the box (below 8 cells), and jumps by a whole
+/// cell where a centred axis passes from `n + 1` to `n + 2` cells.
+#[test]
+fn cover_factor_follows_the_cells_per_axis() {
+    let (lo, hi) = ([0.0; 3], [10.0, 0.0, 0.0]);
+    let at = |t: f64| Grid::cover_factor(lo, hi, 10.0 / t);
+    // Uncentred (t < 8): ⌈t⌉ / (t + ½) averages about 1 over a cell.
+    let mean = (0..100)
+        .map(|i| at(3.0 + (i as f64 + 0.5) / 100.0))
+        .sum::<f64>()
+        / 100.0;
+    assert!((mean - 1.0).abs() < 0.01, "{mean}");
+    // Centred: 11 cells at t = 10.4, 12 at t = 10.6.
+    assert_eq!(Grid::new(lo, hi, 10.0 / 10.4).dims[0], 11);
+    assert_eq!(Grid::new(lo, hi, 10.0 / 10.6).dims[0], 12);
+    assert!(at(10.6) > 1.04 * at(10.4), "{} {}", at(10.4), at(10.6));
+    // Axes under one cell do not count.
+    assert_eq!(Grid::cover_factor(lo, [0.5, 0.0, 0.0], 1.0), 1.0);
+}

@@ -410,16 +410,7 @@ impl Bvh {
                     self.test_slot(p, slot, &mut best);
                 }
             } else {
-                let l = nd.first as usize;
-                let (dl, dr) = (
-                    box_dist2(p, &self.nodes[l]),
-                    box_dist2(p, &self.nodes[l + 1]),
-                );
-                let (near, dn, far, df) = if dl <= dr {
-                    (l, dl, l + 1, dr)
-                } else {
-                    (l + 1, dr, l, dl)
-                };
+                let (near, dn, far, df) = self.children_nearest_first(p, nd.first as usize);
                 if dn < best.dist2 {
                     if df < best.dist2 {
                         stack.push(far);
@@ -484,16 +475,7 @@ impl Bvh {
                     }
                 }
             } else {
-                let l = nd.first as usize;
-                let (dl, dr) = (
-                    box_dist2(p, &self.nodes[l]),
-                    box_dist2(p, &self.nodes[l + 1]),
-                );
-                let (near_c, dn, far_c, df) = if dl <= dr {
-                    (l, dl, l + 1, dr)
-                } else {
-                    (l + 1, dr, l, dl)
-                };
+                let (near_c, dn, far_c, df) = self.children_nearest_first(p, nd.first as usize);
                 if near(dn) {
                     if near(df) {
                         stack.push(far_c);
@@ -550,6 +532,22 @@ impl Bvh {
             }
         }
         true
+    }
+
+    /// The two children of the inner node whose first child is `l`, nearer first:
+    /// `(near, its squared box distance, far, its squared box distance)`; on equal
+    /// distances the left child comes first.
+    #[inline(always)]
+    fn children_nearest_first(&self, p: V3, l: usize) -> (usize, f64, usize, f64) {
+        let (dl, dr) = (
+            box_dist2(p, &self.nodes[l]),
+            box_dist2(p, &self.nodes[l + 1]),
+        );
+        if dl <= dr {
+            (l, dl, l + 1, dr)
+        } else {
+            (l + 1, dr, l, dl)
+        }
     }
 
     #[inline(always)]

@@ -90,7 +90,9 @@ pub(crate) fn run_avx2<R>(f: impl FnOnce() -> R) -> Option<R> {
 /// as the baseline build (see the module docs; the result is the same either way).
 /// The expression is written out twice, so each build has its own copy: kernels
 /// it calls should be `#[inline]`/`#[inline(always)]`, so they are compiled into
-/// the AVX2 copy.
+/// the AVX2 copy. The AVX2 copy sits inside a closure, so the expression must not
+/// `return` or use `?` (those would leave the closure in one copy and the caller in
+/// the other): wrap such code in a function and dispatch the call.
 macro_rules! dispatch {
     ($e:expr) => {
         match $crate::isa::run_avx2(

@@ -83,10 +83,12 @@ impl Grid {
         }
     }
 
-    /// About the smallest cell side whose grid over `lo..hi` has at most `dims`
-    /// cells along every axis ([`Self::new`]'s placement; rounding aside: check the
-    /// dimensions of the grid it gives). A centred axis with `d` cells covers up
-    /// to `d − ½` cells of the box, one starting at `lo` up to `d`.
+    /// The limit cell side below which [`Self::new`]'s grid over `lo..hi` has more
+    /// than `dims` cells along some axis: at exactly this side it may already have
+    /// one more (the limit is not reached), so callers ask for a side a little
+    /// above it (e.g. `× (1 + 1e-9)`) and check the dimensions of the grid they
+    /// get. A centred axis with `d` cells covers up to `d − ½` cells of the box, one
+    /// starting at `lo` up to `d`.
     #[must_use]
     pub fn finest_cell(lo: [f64; 3], hi: [f64; 3], dims: [u32; 3]) -> f64 {
         (0..3)

@@ -188,7 +188,7 @@ impl<C: CostModel + ?Sized> Driver<'_, C> {
 /// periodic progress.
 ///
 /// The whole loop, with the cost model's evaluation and the queue inlined into it,
-/// runs as the AVX2 build where the CPU has it ([`crate::isa`]; same bits).
+/// runs as the AVX2 build where the CPU has it (see the crate's `isa` module; same bits).
 pub fn run<C: CostModel + ?Sized>(
     surface: &mut Surface,
     cost: &mut C,

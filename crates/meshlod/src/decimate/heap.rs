@@ -138,15 +138,14 @@ impl Heap {
                     (c0 + l, lk)
                 }
             } else if c0 < n {
+                // The first of the smallest of the one to three children left.
                 let mut c = c0;
-                let mut ck = keys[c0];
-                for (j, &kj) in keys.iter().enumerate().take(n).skip(c0 + 1) {
-                    if kj < ck {
-                        ck = kj;
+                for j in c0 + 1..n {
+                    if keys[j] < keys[c] {
                         c = j;
                     }
                 }
-                (c, ck)
+                (c, keys[c])
             } else {
                 break;
             };

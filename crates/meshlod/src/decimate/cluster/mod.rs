@@ -1593,7 +1593,7 @@ impl Accumulation<'_> {
         let vcell = &self.vcell[..nv];
         let positions = &mesh.positions[..nv];
         let mut used = used.map(|u| &mut u[..nv]);
-        for (t, tri) in mesh.triangles.iter().enumerate() {
+        for tri in &mesh.triangles {
             let c = tri.map(|v| vcell[v as usize]);
             if let Some(u) = used.as_deref_mut() {
                 for &v in tri {
@@ -1602,8 +1602,7 @@ impl Accumulation<'_> {
             }
             let plane = &Prepared::new(&tri.map(|v| positions[v as usize]), self.origin);
             let w = corner_weights(plane, self.how, |k| {
-                self.factors
-                    .map_or(1.0, |f| f64::from(f[mesh.triangles[t][k] as usize]))
+                self.factors.map_or(1.0, |f| f64::from(f[tri[k] as usize]))
             });
             add_triangle::<QUADRIC>(accs, 0, c, plane, w);
         }

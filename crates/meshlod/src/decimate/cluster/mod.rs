@@ -141,6 +141,7 @@
 
 #[allow(clippy::needless_range_loop)] // 3-vectors and 3×3 matrices read best indexed
 mod accumulate;
+mod coverage;
 pub mod grid;
 
 use crate::io::stream;
@@ -332,6 +333,10 @@ pub struct ClusterStats {
     /// Triangles dropped because representatives of distinct cells coincide or are
     /// exactly collinear.
     pub flattened_triangles: usize,
+    /// Triangles added by the coverage repair: a thin part whose triangles all
+    /// collapsed gets one sliver triangle per occupied cell two or more cells away
+    /// from the output's cells (see the module documentation, "Coverage repair").
+    pub coverage_triangles: usize,
     /// The error (mesh units): see the module documentation.
     pub max_error: f64,
     /// Edges of the output with more than two triangles.
@@ -357,6 +362,7 @@ impl ClusterStats {
         self.collapsed_triangles += other.collapsed_triangles;
         self.duplicate_triangles += other.duplicate_triangles;
         self.flattened_triangles += other.flattened_triangles;
+        self.coverage_triangles += other.coverage_triangles;
         self.max_error = self.max_error.max(other.max_error);
         self.non_manifold_edges += other.non_manifold_edges;
         self.non_manifold_vertices += other.non_manifold_vertices;
@@ -907,6 +913,7 @@ fn empty_result(mesh: &Mesh, options: &ClusterOptions, diag: f64) -> Clustered {
             collapsed_triangles: mesh.triangles.len(),
             duplicate_triangles: 0,
             flattened_triangles: 0,
+            coverage_triangles: 0,
             max_error: 0.0,
             non_manifold_edges: 0,
             non_manifold_vertices: 0,
@@ -1839,6 +1846,39 @@ fn finish(
         triangles.push(t);
         groups.push(g);
     }
+    // The coverage repair: parts whose triangles all collapsed (see `coverage`).
+    let mut coverage = 0;
+    let repair = coverage::plan(
+        table,
+        grid.dims,
+        |c| accs[c as usize].w > 0.0,
+        |c| vertex_of_point[point_of[c as usize] as usize] != u32::MAX,
+    );
+    for c in repair {
+        let p = c.map(|x| point_of[x as usize]);
+        if p[0] == p[1] || p[1] == p[2] || p[0] == p[2] {
+            continue;
+        }
+        let pos = c.map(|x| positions[x as usize]);
+        let e = edge_cross(&pos);
+        if e[0] * e[0] + e[1] * e[1] + e[2] * e[2] == 0.0 {
+            continue;
+        }
+        if merged && !set.insert(p) {
+            continue;
+        }
+        let t = p.map(|q| {
+            let v = &mut vertex_of_point[q as usize];
+            if *v == u32::MAX {
+                *v = out_positions.len() as u32;
+                out_positions.push(positions[weld.representative[q as usize] as usize]);
+            }
+            *v
+        });
+        triangles.push(t);
+        groups.push(0);
+        coverage += 1;
+    }
     let working_bytes = table.bytes()
         + std::mem::size_of_val(accs)
         + reps.len() * 32
@@ -1873,6 +1913,7 @@ fn finish(
             collapsed_triangles: stage1.collapsed,
             duplicate_triangles: duplicates,
             flattened_triangles: flattened,
+            coverage_triangles: coverage,
             max_error,
             non_manifold_edges: topo.non_manifold_edges,
             non_manifold_vertices: topo.non_manifold_vertices,

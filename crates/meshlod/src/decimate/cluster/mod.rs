@@ -438,10 +438,7 @@ struct Band {
 impl Band {
     /// The same fraction on both sides.
     fn even(f: f64) -> Self {
-        Self {
-            below: f,
-            above: f,
-        }
+        Self { below: f, above: f }
     }
 
     /// Whether `count` lies in the band around `goal`.
@@ -608,10 +605,7 @@ impl Search {
         let mut eps = self.next(goal).unwrap_or(eps0);
         eps = eps.clamp(f64::MIN_POSITIVE, coarsest);
         for probe in 0..Self::MAX_PROBES {
-            if probe >= Self::PATIENCE
-                && self
-                    .closest(goal)
-                    .is_some_and(|b| loose.holds(b.1, goal))
+            if probe >= Self::PATIENCE && self.closest(goal).is_some_and(|b| loose.holds(b.1, goal))
             {
                 break;
             }
@@ -622,7 +616,11 @@ impl Search {
                 None => {
                     let c = count(&grid);
                     if std::env::var_os("MESHLOD_TRACE").is_some() {
-                        eprintln!("probe eps {eps} dims {:?} count {c} goal {goal} off {:+.2}%", grid.dims, 100.0 * (c as f64 / goal as f64 - 1.0));
+                        eprintln!(
+                            "probe eps {eps} dims {:?} count {c} goal {goal} off {:+.2}%",
+                            grid.dims,
+                            100.0 * (c as f64 / goal as f64 - 1.0)
+                        );
                     }
                     self.probes.push((eps, c));
                     c

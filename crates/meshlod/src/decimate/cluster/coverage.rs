@@ -24,19 +24,18 @@ use super::grid::{pack, unpack, CellTable};
 const NONE: u32 = u32::MAX;
 
 /// The cell triples of the repair (see the module documentation), given the table of
-/// `dims` cells, whether a cell holds a corner (`occupied`) and whether it has an
-/// output vertex (`covered`). Empty when no cell is an orphan at depth 2.
+/// `dims` cells, its orphan cells (ids, any order), whether a cell holds a corner
+/// (`occupied`) and whether it has an output vertex (`covered`). Empty when no cell
+/// is an orphan at depth 2.
 pub(super) fn plan(
     table: &CellTable,
     dims: [u32; 3],
+    orphans: &[u32],
     occupied: impl Fn(u32) -> bool,
     covered: impl Fn(u32) -> bool,
 ) -> Vec<[u32; 3]> {
     let n = table.len() as u32;
-    let mut orphans: Vec<(u64, u32)> = (0..n)
-        .filter(|&c| occupied(c) && !covered(c))
-        .map(|c| (table.key(c), c))
-        .collect();
+    let mut orphans: Vec<(u64, u32)> = orphans.iter().map(|&c| (table.key(c), c)).collect();
     if orphans.is_empty() {
         return Vec::new();
     }
@@ -46,8 +45,9 @@ pub(super) fn plan(
     for (i, &(_, c)) in orphans.iter().enumerate() {
         slot[c as usize] = i as u32;
     }
-    let neighbours = |key: u64, out: &mut Vec<u32>| {
-        out.clear();
+    // The occupied 26-neighbours of the cell `key`, in a fixed order, until `f`
+    // returns true (then true).
+    let any_neighbour = |key: u64, f: &mut dyn FnMut(u32) -> bool| -> bool {
         let c = unpack(key);
         for dx in -1i64..=1 {
             for dy in -1i64..=1 {
@@ -65,27 +65,37 @@ pub(super) fn plan(
                     }
                     if inside {
                         if let Some(id) = table.find(pack(d)) {
-                            if occupied(id) {
-                                out.push(id);
+                            if occupied(id) && f(id) {
+                                return true;
                             }
                         }
                     }
                 }
             }
         }
+        false
     };
     let m = orphans.len();
     let mut depth = vec![0u32; m];
     let mut parent = vec![NONE; m];
     let mut queue: Vec<u32> = Vec::with_capacity(m);
-    let mut near = Vec::with_capacity(26);
     for (i, &(key, _)) in orphans.iter().enumerate() {
-        neighbours(key, &mut near);
-        if let Some(&c) = near.iter().find(|&&c| covered(c)) {
+        let mut first = NONE;
+        if any_neighbour(key, &mut |c| {
+            first = c;
+            covered(c)
+        }) {
             depth[i] = 1;
-            parent[i] = c;
+            parent[i] = first;
             queue.push(i as u32);
         }
+    }
+    if std::env::var_os("MESHLOD_TRACE").is_some() {
+        eprintln!("cells {n} orphans {m} depth1 {}", queue.len());
+    }
+    // Usually every orphan touches the output's cells: nothing to repair.
+    if queue.len() == m {
+        return Vec::new();
     }
     let mut head = 0;
     let mut next_root = 0;
@@ -93,15 +103,16 @@ pub(super) fn plan(
         while head < queue.len() {
             let i = queue[head] as usize;
             head += 1;
-            neighbours(orphans[i].0, &mut near);
-            for &c in &near {
+            let (d, from) = (depth[i] + 1, orphans[i].1);
+            any_neighbour(orphans[i].0, &mut |c| {
                 let j = slot[c as usize];
                 if j != NONE && depth[j as usize] == 0 {
-                    depth[j as usize] = depth[i] + 1;
-                    parent[j as usize] = orphans[i].1;
+                    depth[j as usize] = d;
+                    parent[j as usize] = from;
                     queue.push(j);
                 }
-            }
+                false
+            });
         }
         // An orphan group out of reach of the output (a separate piece): from its
         // smallest key.
@@ -126,15 +137,15 @@ pub(super) fn plan(
             parent[pi]
         } else {
             // `p` is a separate piece's root: another of its orphan neighbours.
-            neighbours(orphans[pi].0, &mut near);
-            match near
-                .iter()
-                .copied()
-                .find(|&c| c != orphans[i].1 && slot[c as usize] != NONE)
-            {
-                Some(c) => c,
-                None => continue,
+            let mut other = NONE;
+            any_neighbour(orphans[pi].0, &mut |c| {
+                other = c;
+                c != orphans[i].1 && slot[c as usize] != NONE
+            });
+            if other == NONE || other == orphans[i].1 || slot[other as usize] == NONE {
+                continue;
             }
+            other
         };
         out.push([orphans[i].1, p, pp]);
     }

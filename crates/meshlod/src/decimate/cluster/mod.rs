@@ -1844,14 +1844,25 @@ fn finish(
         triangles.push(t);
         groups.push(g);
     }
+    let mut vertex_of_cell: Vec<u32> = point_of
+        .iter()
+        .map(|&p| vertex_of_point[p as usize])
+        .collect();
     // The coverage repair: parts whose triangles all collapsed (see `coverage`).
-    let mut coverage = 0;
+    let orphans: Vec<u32> = (0..positions.len() as u32)
+        .zip(&vertex_of_cell)
+        .zip(accs)
+        .filter(|((_, &v), a)| v == u32::MAX && a.w > 0.0)
+        .map(|((c, _), _)| c)
+        .collect();
     let repair = coverage::plan(
         table,
         grid.dims,
+        &orphans,
         |c| accs[c as usize].w > 0.0,
-        |c| vertex_of_point[point_of[c as usize] as usize] != u32::MAX,
+        |c| vertex_of_cell[c as usize] != u32::MAX,
     );
+    let mut coverage = 0;
     for c in repair {
         let p = c.map(|x| point_of[x as usize]);
         if p[0] == p[1] || p[1] == p[2] || p[0] == p[2] {
@@ -1877,16 +1888,16 @@ fn finish(
         groups.push(0);
         coverage += 1;
     }
+    if coverage > 0 {
+        for (v, &p) in vertex_of_cell.iter_mut().zip(point_of) {
+            *v = vertex_of_point[p as usize];
+        }
+    }
     let working_bytes = table.bytes()
         + std::mem::size_of_val(accs)
         + reps.len() * 32
         + stage1.cells.capacity() * 16
         + set.bytes();
-    let vertex_of_cell: Vec<u32> = weld
-        .point_of
-        .iter()
-        .map(|&p| vertex_of_point[p as usize])
-        .collect();
     let topo = if topology {
         edge_counts(&triangles, out_positions.len())
     } else {

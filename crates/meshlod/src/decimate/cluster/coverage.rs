@@ -90,9 +90,6 @@ pub(super) fn plan(
             queue.push(i as u32);
         }
     }
-    if std::env::var_os("MESHLOD_TRACE").is_some() {
-        eprintln!("cells {n} orphans {m} depth1 {}", queue.len());
-    }
     // Usually every orphan touches the output's cells: nothing to repair.
     if queue.len() == m {
         return Vec::new();

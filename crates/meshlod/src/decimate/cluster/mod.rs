@@ -458,6 +458,8 @@ struct Search {
     kp: f64,
     /// Every probe, `(ε, count)`, in order.
     probes: Vec<(f64, usize)>,
+    /// The band of the current [`Self::run`].
+    band: Band,
 }
 
 impl Search {
@@ -473,6 +475,7 @@ impl Search {
             hi,
             kp: 0.0,
             probes: Vec::new(),
+            band: Band::even(0.0),
         }
     }
 
@@ -570,7 +573,28 @@ impl Search {
                 el / 4.0
             } else {
                 let plain = el * (cl as f64 / g).sqrt().clamp(0.125, 0.998);
-                self.calibrated(el, cl, goal, plain / 1.1, el * 0.998)
+                // On coarse grids (an axis of fewer than 8 cells) the count model is
+                // poor where the grid keeps the probe's cells per axis (it
+                // predicted 117 where fandisk gave 126) and the count jumps where a
+                // row of cells appears: when the count ∝ ε⁻² reaches the band at the
+                // finest ε with the probe's cells, search only down to it. The
+                // bracket would probe that ε anyway once a probe crossed the jump.
+                let dims = Grid::new(self.lo, self.hi, el).dims;
+                let edge = Grid::finest_cell(self.lo, self.hi, dims) * (1.0 + 1e-9);
+                let reach = cl as f64 * (el / edge) * (el / edge);
+                let from = if dims
+                    .iter()
+                    .any(|&d| f64::from(d) < grid::CENTRED_FROM_CELLS)
+                    && edge < el * 0.998
+                    && edge > plain / 1.1
+                    && Grid::new(self.lo, self.hi, edge).dims == dims
+                    && reach >= g - self.band.below * g
+                {
+                    edge
+                } else {
+                    plain / 1.1
+                };
+                self.calibrated(el, cl, goal, from, el * 0.998)
                     .unwrap_or(plain)
             }),
             (None, None) => None,
@@ -596,6 +620,7 @@ impl Search {
         if goal == 0 {
             return (coarsest, None);
         }
+        self.band = strict;
         let within = |c: usize| strict.holds(c, goal);
         if let Some(b) = self.closest(goal) {
             if within(b.1) {
@@ -615,13 +640,6 @@ impl Search {
                 Some(p) => p.1,
                 None => {
                     let c = count(&grid);
-                    if std::env::var_os("MESHLOD_TRACE").is_some() {
-                        eprintln!(
-                            "probe eps {eps} dims {:?} count {c} goal {goal} off {:+.2}%",
-                            grid.dims,
-                            100.0 * (c as f64 / goal as f64 - 1.0)
-                        );
-                    }
                     self.probes.push((eps, c));
                     c
                 }

@@ -700,13 +700,14 @@ fn print_text(r: &CliReport) {
     println!("  stopped      {}: {}", r.stop_reason, r.stop_detail);
     if let Some(c) = &r.cluster {
         println!(
-            "  clustering   {} representative, cell {:.4e}, {} occupied cells; {} triangles collapsed, {} duplicates, {} flattened",
+            "  clustering   {} representative, cell {:.4e}, {} occupied cells; {} triangles collapsed, {} duplicates, {} flattened, {} added by the coverage repair",
             c.representative.name(),
             c.cell_size,
             c.occupied_cells,
             c.collapsed_triangles,
             c.duplicate_triangles,
-            c.flattened_triangles
+            c.flattened_triangles,
+            c.coverage_triangles
         );
         println!(
             "  topology     {} non-manifold edges, {} non-manifold vertices, {} boundary edges",

@@ -345,6 +345,28 @@ impl CellTable {
         }
     }
 
+    /// The dense id of `key` when it was inserted (no insertion). In the flat layout
+    /// the key must be a cell of the grid the table was made for.
+    #[must_use]
+    pub fn find(&self, key: u64) -> Option<u32> {
+        if !self.dense.is_empty() {
+            let [i, j, k] = unpack(key).map(u64::from);
+            let id = self.dense[((i * self.dims[0] + j) * self.dims[1] + k) as usize];
+            return (id != u32::MAX).then_some(id);
+        }
+        let mut i = mix(key) as usize & self.mask;
+        loop {
+            let (k, v) = self.slots[i];
+            if k == key {
+                return Some(v);
+            }
+            if k == EMPTY {
+                return None;
+            }
+            i = (i + 1) & self.mask;
+        }
+    }
+
     /// [`Self::id`] of the cell with [`Grid::linear`] index `l` on `grid` (the grid
     /// the table was made for): in the flat layout the index is the slot.
     #[inline]

@@ -472,3 +472,107 @@ fn cover_factor_follows_the_cells_per_axis() {
     // Axes under one cell do not count.
     assert_eq!(Grid::cover_factor(lo, [0.5, 0.0, 0.0], 1.0), 1.0);
 }
+
+/// A flat plate `[0, 1]²` with a needle (an open tube of radius 0.004 and height 1)
+/// standing at its centre, and, with `piece`, a separate thin rod lying beside it;
+/// on cells of side 0.05 (centred: cell centres near the needle's axis and on its rings)
+/// every needle and rod triangle falls on one or two cells and collapses.
+fn plate_with_needle(piece: bool) -> Mesh {
+    let plate = generate::grid(20, 20, |_, _| 0.0);
+    let mut positions = plate.positions.clone();
+    let mut triangles = plate.triangles.clone();
+    let tube = generate::cylinder(6, 20, 1.0, false);
+    let mut add = |m: &Mesh, place: &dyn Fn([f32; 3]) -> [f32; 3]| {
+        let base = positions.len() as u32;
+        positions.extend(m.positions.iter().map(|&p| place(p)));
+        triangles.extend(m.triangles.iter().map(|t| t.map(|v| v + base)));
+    };
+    // Slightly bent (a straight needle's representatives would be exactly
+    // collinear, and a triangle over them flat), within its column of cells.
+    add(&tube, &|p| {
+        [
+            0.5 + 0.004 * p[0] + 0.01 * p[2] * p[2],
+            0.5 + 0.004 * p[1],
+            p[2],
+        ]
+    });
+    if piece {
+        // A rod along x at height 0.6, half a unit long, away from the needle.
+        let rod = generate::cylinder(6, 10, 0.5, false);
+        add(&rod, &|p| {
+            [
+                0.1 + p[2],
+                0.2 + 0.004 * p[0] + 0.02 * p[2] * p[2],
+                0.6 + 0.004 * p[1],
+            ]
+        });
+    }
+    Mesh::from_triangles(positions, triangles)
+}
+
+/// The coverage repair keeps something of a thin part whose triangles all
+/// collapsed: the needle's tip and the separate rod are within two cells of the
+/// output, and a mesh without thin parts gets no repair triangles.
+#[test]
+fn coverage_repair_keeps_thin_parts() {
+    let e = 0.05;
+    let o = ClusterOptions::default().with_cell_size(Distance::Absolute(e));
+    let plain = cluster_mesh(&generate::grid(20, 20, |_, _| 0.0), None, &o).unwrap();
+    assert_eq!(plain.stats.coverage_triangles, 0);
+    let torus = cluster_mesh(
+        &generate::torus(90, 40, 1.0, 0.3),
+        Some(700),
+        &ClusterOptions::default(),
+    )
+    .unwrap();
+    assert_eq!(torus.stats.coverage_triangles, 0);
+    for piece in [false, true] {
+        let m = plate_with_needle(piece);
+        let c = cluster_mesh(&m, None, &o).unwrap();
+        assert_clean(&c.mesh);
+        assert!(c.stats.coverage_triangles > 0, "piece={piece}");
+        // Every input vertex is within two cells of some output vertex.
+        let near = |p: [f32; 3]| {
+            c.mesh.positions.iter().any(|q| {
+                let d2: f64 = (0..3)
+                    .map(|k| (f64::from(p[k]) - f64::from(q[k])).powi(2))
+                    .sum();
+                d2.sqrt() <= 2.0 * e
+            })
+        };
+        for (v, &p) in m.positions.iter().enumerate() {
+            assert!(
+                near(p),
+                "piece={piece}: vertex {v} at {p:?} is far from the output"
+            );
+        }
+    }
+    // Without the repair (the triangles over the plate's cells only) the needle's
+    // tip would be a whole unit away: the repair's triangles reach it.
+    let c = cluster_mesh(&plate_with_needle(false), None, &o).unwrap();
+    let top = c
+        .mesh
+        .positions
+        .iter()
+        .map(|p| p[2])
+        .fold(f32::MIN, f32::max);
+    assert!(top > 0.9, "highest output vertex at z = {top}");
+}
+
+/// The streaming path adds the same repair triangles (cells are numbered differently
+/// there, the repair orders by cell key).
+#[test]
+fn coverage_repair_streams_alike() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("needle.stl");
+    let m = plate_with_needle(true);
+    write_mesh(&path, &m, &WriteOptions::default()).unwrap();
+    let read = crate::read_mesh(&path).unwrap();
+    let o = ClusterOptions::default().with_cell_size(Distance::Absolute(0.05));
+    let mem = cluster_mesh(&read, None, &o).unwrap();
+    let st = cluster_file(&path, |_| None, &o).unwrap();
+    assert!(mem.stats.coverage_triangles > 0);
+    assert_eq!(mem.stats.coverage_triangles, st.stats.coverage_triangles);
+    assert_eq!(mem.mesh.positions, st.mesh.positions);
+    assert_eq!(mem.mesh.triangles, st.mesh.triangles);
+}

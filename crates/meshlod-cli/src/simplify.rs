@@ -1,8 +1,8 @@
 //! `meshlod simplify IN -o OUT [--ratio R | --triangles N] [--max-error E]
 //! [--method qem|melax|cluster|vertex-removal] [--placement optimal|endpoint|midpoint]
 //! [--lock-boundary] [--pair-threshold T] [--json]`; vertex clustering adds
-//! `[--cell-size E] [--representative quadric|average|weighted] [--stream]`, vertex
-//! removal `[--feature-angle DEG] [--keep-corners]`.
+//! `[--cell-size E] [--count-tolerance F] [--representative quadric|average|weighted]
+//! [--stream]`, vertex removal `[--feature-angle DEG] [--keep-corners]`.
 //!
 //! Reads with `meshlod::io::read_scene`, simplifies, writes with `write_scene`. A glTF
 //! input written back as glTF keeps its scene: each part (glTF mesh) is simplified
@@ -139,6 +139,11 @@ pub struct SimplifyArgs {
     /// are not carried.
     #[arg(long)]
     pub stream: bool,
+    /// Relative tolerance on the triangle count when --method cluster searches its cell
+    /// size for --ratio/--triangles (default 0.05: within 5% of the target). Smaller
+    /// values cost more probes of the grid.
+    #[arg(long, value_name = "F")]
+    pub count_tolerance: Option<f64>,
 }
 
 /// `--representative` values.
@@ -269,9 +274,12 @@ fn options(args: &SimplifyArgs) -> Result<SimplifyOptions> {
     if args.method != MethodArg::Cluster
         && (args.stream
             || args.cell_size.is_some()
+            || args.count_tolerance.is_some()
             || args.representative != RepresentativeArg::Quadric)
     {
-        bail!("--stream, --cell-size and --representative need --method cluster");
+        bail!(
+            "--stream, --cell-size, --count-tolerance and --representative need --method cluster"
+        );
     }
     let mut c = ClusterOptions::default().with_representative(match args.representative {
         RepresentativeArg::Quadric => Representative::Quadric,
@@ -283,6 +291,12 @@ fn options(args: &SimplifyArgs) -> Result<SimplifyOptions> {
             bail!("--cell-size {e} is not a positive distance");
         }
         c = c.with_cell_size(dist(e));
+    }
+    if let Some(t) = args.count_tolerance {
+        if !(t > 0.0 && t < 1.0) {
+            bail!("--count-tolerance {t} is not a fraction between 0 and 1");
+        }
+        c = c.with_tolerance(t);
     }
     o = o.with_cluster(c);
     if let Some(p) = args.placement {

@@ -216,3 +216,47 @@ fn vertex_removal_method() {
     );
     assert!(!bad.status.success());
 }
+
+/// `--method cluster` lands within `--count-tolerance` of `--triangles` (default 5%);
+/// the flag is refused outside clustering and outside (0, 1).
+#[test]
+fn cluster_count_tolerance() {
+    let dir = tempfile::tempdir().unwrap();
+    let input = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../tests/data/stanford-bunny.obj");
+    let output = dir.path().join("out.ply");
+    for (tol, extra) in [(0.05, vec![]), (0.01, vec!["--count-tolerance", "0.01"])] {
+        let mut args = vec!["--method", "cluster", "--triangles", "3000", "--json"];
+        args.extend(extra);
+        let j = json(&simplify(&input, &output, &args));
+        let n = j["triangles_out"].as_f64().unwrap();
+        assert!(
+            (n - 3000.0).abs() <= tol * 3000.0,
+            "{n} triangles for 3000 at tolerance {tol}"
+        );
+        assert!(j["cluster"]["search_passes"].as_u64().unwrap() >= 1);
+    }
+    for bad in [
+        vec![
+            "--method",
+            "cluster",
+            "--ratio",
+            "0.1",
+            "--count-tolerance",
+            "1.5",
+        ],
+        vec![
+            "--method",
+            "cluster",
+            "--ratio",
+            "0.1",
+            "--count-tolerance",
+            "0",
+        ],
+        vec!["--ratio", "0.1", "--count-tolerance", "0.01"],
+    ] {
+        let out = simplify(&input, &output, &bad);
+        assert!(!out.status.success(), "{bad:?} accepted");
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(err.contains("--count-tolerance"), "{bad:?}: {err}");
+    }
+}

@@ -1293,12 +1293,14 @@ impl InMemory<'_> {
         }
         let points = &self.mesh.positions;
         if small_grid(grid) {
-            // A plain loop (it vectorises), over chunks in parallel on large inputs.
+            // A plain loop (it vectorises), over chunks in parallel on large inputs
+            // (sequentially written as it is computed, not zeroed first).
             self.small.clear();
-            self.small.resize(points.len(), 0);
             if points.len() < PAR_COUNT || rayon::current_num_threads() == 1 {
-                grid.linear_u32_all(points, &mut self.small);
+                self.small
+                    .extend(points.iter().map(|&p| grid.linear_u32(p)));
             } else {
+                self.small.resize(points.len(), 0);
                 points
                     .par_chunks(PAR_MIN)
                     .zip(self.small.par_chunks_mut(PAR_MIN))

@@ -23,6 +23,13 @@ use super::grid::{pack, unpack, CellTable};
 /// No cell.
 const NONE: u32 = u32::MAX;
 
+/// A depth-1 orphan gets a triangle when its representative is farther than this
+/// many cell sides from every covered neighbour's representative.
+const FAR: f64 = 0.55;
+
+/// At most one depth-1 triangle per this many output triangles (before the repair).
+pub(super) const FAR_BUDGET_PER: usize = 256;
+
 /// The cell triples of the repair (see the module documentation), given the table of
 /// `dims` cells, its orphan cells (ids, any order), whether a cell holds a corner
 /// (`occupied`) and whether it has an output vertex (`covered`). Empty when no cell
@@ -33,6 +40,9 @@ pub(super) fn plan(
     orphans: &[u32],
     occupied: impl Fn(u32) -> bool,
     covered: impl Fn(u32) -> bool,
+    pos: impl Fn(u32) -> [f32; 3],
+    cell: f64,
+    budget: usize,
 ) -> Vec<[u32; 3]> {
     let n = table.len() as u32;
     let mut orphans: Vec<(u64, u32)> = orphans.iter().map(|&c| (table.key(c), c)).collect();
@@ -90,9 +100,50 @@ pub(super) fn plan(
             queue.push(i as u32);
         }
     }
+    // Depth-1 orphans whose representative is farther than `FAR` cells from every
+    // covered neighbour's: the farthest `budget` of them.
+    let far = FAR * cell;
+    let dist = |p: [f32; 3], q: [f32; 3]| -> f64 {
+        (0..3)
+            .map(|k| (f64::from(p[k]) - f64::from(q[k])).powi(2))
+            .sum::<f64>()
+            .sqrt()
+    };
+    let mut near: Vec<(f64, [u32; 3])> = Vec::new();
+    if budget > 0 {
+        for &i in &queue {
+            let (key, c) = orphans[i as usize];
+            let p = pos(c);
+            // The first covered neighbour found bounds the nearest.
+            if dist(p, pos(parent[i as usize])) <= far {
+                continue;
+            }
+            // The two nearest covered neighbours (by representative).
+            let mut best = [(f64::INFINITY, NONE); 2];
+            any_neighbour(key, &mut |n| {
+                if covered(n) {
+                    let d = dist(p, pos(n));
+                    if d < best[0].0 {
+                        best[1] = best[0];
+                        best[0] = (d, n);
+                    } else if d < best[1].0 {
+                        best[1] = (d, n);
+                    }
+                }
+                false
+            });
+            if best[0].0 > far && best[1].1 != NONE {
+                near.push((best[0].0, [c, best[0].1, best[1].1]));
+            }
+        }
+        // Farthest first; ties by the order of the keys (stable sort).
+        near.sort_by(|a, b| b.0.total_cmp(&a.0));
+        near.truncate(budget);
+    }
+    let mut out: Vec<[u32; 3]> = near.into_iter().map(|(_, t)| t).collect();
     // Usually every orphan touches the output's cells: nothing to repair.
     if queue.len() == m {
-        return Vec::new();
+        return out;
     }
     let mut head = 0;
     let mut next_root = 0;
@@ -122,7 +173,6 @@ pub(super) fn plan(
         depth[next_root] = 1;
         queue.push(next_root as u32);
     }
-    let mut out = Vec::new();
     for &i in &queue {
         let i = i as usize;
         if depth[i] < 2 {

@@ -1893,6 +1893,9 @@ fn finish(
         &orphans,
         |c| accs[c as usize].w > 0.0,
         |c| vertex_of_cell[c as usize] != u32::MAX,
+        |c| positions[weld.representative[point_of[c as usize] as usize] as usize],
+        grid.cell,
+        triangles.len() / coverage::FAR_BUDGET_PER,
     );
     let mut coverage = 0;
     for c in repair {

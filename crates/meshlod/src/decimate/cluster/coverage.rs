@@ -14,8 +14,19 @@
 //! output, as clustering is anywhere. Every orphan at depth 2 or more gets one
 //! triangle over itself, the neighbour it was reached from and that neighbour's
 //! own predecessor (three occupied cells a step apart): a thin sliver along the part,
-//! which brings it back within a cell or so of the output. The triangles are ordered
-//! by cell key (breadth first), not by cell id, so both paths (which number cells
+//! which brings it back within a cell or so of the output.
+//!
+//! A depth-1 orphan is usually as close to the output as clustering keeps anything,
+//! but a tip that reaches a few hundredths of a cell into the next cell (the
+//! armadillo's toe at 1%: 2.69% of the diagonal, the mesh's maximum) can stand out.
+//! A depth-1 orphan whose representative is farther than [`FAR`] cell sides from
+//! every covered neighbour's representative gets one triangle over itself and the
+//! two nearest of those neighbours; the farthest such orphans first, at most one per
+//! [`FAR_BUDGET_PER`] output triangles (a bound on what the rule adds on top of the
+//! count: none below 256 triangles). The distance to the first covered neighbour
+//! found bounds the nearest, so the full neighbour scan runs only for orphans
+//! beyond it. The triangles are ordered by cell key (breadth first; the depth-1 ones
+//! by distance, ties by key), not by cell id, so both paths (which number cells
 //! differently) add the same ones.
 
 use super::grid::{pack, unpack, CellTable};
@@ -32,8 +43,11 @@ pub(super) const FAR_BUDGET_PER: usize = 256;
 
 /// The cell triples of the repair (see the module documentation), given the table of
 /// `dims` cells, its orphan cells (ids, any order), whether a cell holds a corner
-/// (`occupied`) and whether it has an output vertex (`covered`). Empty when no cell
-/// is an orphan at depth 2.
+/// (`occupied`), whether it has an output vertex (`covered`), a cell's (welded)
+/// representative (`pos`), the cell side `cell` in mesh units and the most depth-1
+/// triangles to add (`budget`). Empty when no cell is an orphan at depth 2 and no
+/// depth-1 orphan is farther than [`FAR`] cells from its covered neighbours.
+#[allow(clippy::too_many_arguments)]
 pub(super) fn plan(
     table: &CellTable,
     dims: [u32; 3],

@@ -114,7 +114,10 @@
 //! of about 3%). After the clean-up, every occupied cell without an output vertex
 //! that is two or more 26-neighbour steps from the output's cells gets one triangle
 //! over itself and its two predecessors toward them (a sliver along the part;
-//! `coverage`), counted in [`ClusterStats::coverage_triangles`]. The repair does
+//! `coverage`). A neighbouring orphan whose representative is more than 0.55 cells
+//! from every covered neighbour's (a tip just over a cell border) gets one toward
+//! the two nearest, at most one per 256 output triangles. Both are counted in
+//! [`ClusterStats::coverage_triangles`]. The repair does
 //! not look at the target, so those few triangles come on top of the count.
 //!
 //! # Tables

@@ -1845,8 +1845,11 @@ fn finish(
     let mut set = TripleSet::with_capacity(if merged { stage1.cells.len() } else { 0 });
     let mut vertex_of_point = vec![u32::MAX; weld.point_count()];
     let mut out_positions = Vec::new();
-    let mut triangles = Vec::with_capacity(stage1.cells.len());
-    let mut groups = Vec::with_capacity(stage1.cells.len());
+    // Room for the coverage repair's few triangles as well: growing these vectors
+    // afterwards would copy them whole.
+    let room = stage1.cells.len() + stage1.cells.len() / coverage::FAR_BUDGET_PER + 16;
+    let mut triangles = Vec::with_capacity(room);
+    let mut groups = Vec::with_capacity(room);
     let mut flattened = 0;
     let mut duplicates = stage1.duplicates;
     // One length for the per-cell arrays: one bounds check per cell.

@@ -1928,8 +1928,14 @@ fn finish(
         triangles.push(t);
         groups.push(0);
         coverage += 1;
+        if !merged {
+            // One cell per point: only these three cells can have gained a vertex.
+            for x in c {
+                vertex_of_cell[x as usize] = vertex_of_point[point_of[x as usize] as usize];
+            }
+        }
     }
-    if coverage > 0 {
+    if coverage > 0 && merged {
         for (v, &p) in vertex_of_cell.iter_mut().zip(point_of) {
             *v = vertex_of_point[p as usize];
         }

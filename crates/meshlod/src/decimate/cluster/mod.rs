@@ -114,7 +114,10 @@
 //! of about 3%). After the clean-up, every occupied cell without an output vertex
 //! that is two or more 26-neighbour steps from the output's cells gets one triangle
 //! over itself and its two predecessors toward them (a sliver along the part;
-//! `coverage`), counted in [`ClusterStats::coverage_triangles`]. The repair does
+//! `coverage`). A neighbouring orphan whose representative is more than 0.55 cells
+//! from every covered neighbour's (a tip just over a cell border) gets one toward
+//! the two nearest, at most one per 256 output triangles. Both are counted in
+//! [`ClusterStats::coverage_triangles`]. The repair does
 //! not look at the target, so those few triangles come on top of the count.
 //!
 //! # Tables
@@ -1844,8 +1847,11 @@ fn finish(
     let mut set = TripleSet::with_capacity(if merged { stage1.cells.len() } else { 0 });
     let mut vertex_of_point = vec![u32::MAX; weld.point_count()];
     let mut out_positions = Vec::new();
-    let mut triangles = Vec::with_capacity(stage1.cells.len());
-    let mut groups = Vec::with_capacity(stage1.cells.len());
+    // Room for the coverage repair's few triangles as well: growing these vectors
+    // afterwards would copy them whole.
+    let room = stage1.cells.len() + stage1.cells.len() / coverage::FAR_BUDGET_PER + 16;
+    let mut triangles = Vec::with_capacity(room);
+    let mut groups = Vec::with_capacity(room);
     let mut flattened = 0;
     let mut duplicates = stage1.duplicates;
     // One length for the per-cell arrays: one bounds check per cell.
@@ -1895,6 +1901,9 @@ fn finish(
         &orphans,
         |c| accs[c as usize].w > 0.0,
         |c| vertex_of_cell[c as usize] != u32::MAX,
+        |c| positions[weld.representative[point_of[c as usize] as usize] as usize],
+        grid.cell,
+        triangles.len() / coverage::FAR_BUDGET_PER,
     );
     let mut coverage = 0;
     for c in repair {
@@ -1921,8 +1930,14 @@ fn finish(
         triangles.push(t);
         groups.push(0);
         coverage += 1;
+        if !merged {
+            // One cell per point: only these three cells can have gained a vertex.
+            for x in c {
+                vertex_of_cell[x as usize] = vertex_of_point[point_of[x as usize] as usize];
+            }
+        }
     }
-    if coverage > 0 {
+    if coverage > 0 && merged {
         for (v, &p) in vertex_of_cell.iter_mut().zip(point_of) {
             *v = vertex_of_point[p as usize];
         }

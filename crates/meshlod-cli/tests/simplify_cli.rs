@@ -235,23 +235,19 @@ fn cluster_count_tolerance() {
         );
         assert!(j["cluster"]["search_passes"].as_u64().unwrap() >= 1);
     }
+    let cluster_at = |t| {
+        vec![
+            "--method",
+            "cluster",
+            "--ratio",
+            "0.1",
+            "--count-tolerance",
+            t,
+        ]
+    };
     for bad in [
-        vec![
-            "--method",
-            "cluster",
-            "--ratio",
-            "0.1",
-            "--count-tolerance",
-            "1.5",
-        ],
-        vec![
-            "--method",
-            "cluster",
-            "--ratio",
-            "0.1",
-            "--count-tolerance",
-            "0",
-        ],
+        cluster_at("1.5"),
+        cluster_at("0"),
         vec!["--ratio", "0.1", "--count-tolerance", "0.01"],
     ] {
         let out = simplify(&input, &output, &bad);

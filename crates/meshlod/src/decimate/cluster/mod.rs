@@ -1810,6 +1810,24 @@ struct Finished {
     vertex_of_cell: Vec<u32>,
 }
 
+/// The output vertex of welded point `q`, created on first use at its representative's
+/// position (`positions` are the cells' representatives, `weld` their exact weld).
+#[inline]
+fn output_vertex(
+    vertex_of_point: &mut [u32],
+    out_positions: &mut Vec<[f32; 3]>,
+    positions: &[[f32; 3]],
+    weld: &Weld,
+    q: u32,
+) -> u32 {
+    let v = &mut vertex_of_point[q as usize];
+    if *v == u32::MAX {
+        *v = out_positions.len() as u32;
+        out_positions.push(positions[weld.representative[q as usize] as usize]);
+    }
+    *v
+}
+
 /// Representatives, the second clean-up (coinciding representatives, zero area,
 /// duplicates over welded positions) and compaction: shared by both paths. Without
 /// `topology` the manifold counts are left at 0 (the caller computes them).
@@ -1874,12 +1892,13 @@ fn finish(
             continue;
         }
         let t = p.map(|q| {
-            let v = &mut vertex_of_point[q as usize];
-            if *v == u32::MAX {
-                *v = out_positions.len() as u32;
-                out_positions.push(positions[weld.representative[q as usize] as usize]);
-            }
-            *v
+            output_vertex(
+                &mut vertex_of_point,
+                &mut out_positions,
+                &positions,
+                &weld,
+                q,
+            )
         });
         triangles.push(t);
         groups.push(g);
@@ -1920,12 +1939,13 @@ fn finish(
             continue;
         }
         let t = p.map(|q| {
-            let v = &mut vertex_of_point[q as usize];
-            if *v == u32::MAX {
-                *v = out_positions.len() as u32;
-                out_positions.push(positions[weld.representative[q as usize] as usize]);
-            }
-            *v
+            output_vertex(
+                &mut vertex_of_point,
+                &mut out_positions,
+                &positions,
+                &weld,
+                q,
+            )
         });
         triangles.push(t);
         groups.push(0);

@@ -1810,22 +1810,27 @@ struct Finished {
     vertex_of_cell: Vec<u32>,
 }
 
-/// The output vertex of welded point `q`, created on first use at its representative's
-/// position (`positions` are the cells' representatives, `weld` their exact weld).
-#[inline]
-fn output_vertex(
-    vertex_of_point: &mut [u32],
-    out_positions: &mut Vec<[f32; 3]>,
-    positions: &[[f32; 3]],
-    weld: &Weld,
-    q: u32,
-) -> u32 {
-    let v = &mut vertex_of_point[q as usize];
-    if *v == u32::MAX {
-        *v = out_positions.len() as u32;
-        out_positions.push(positions[weld.representative[q as usize] as usize]);
+/// Output vertices created on first use: `of_point[q]` is welded point `q`'s output
+/// vertex (`u32::MAX` until used), placed at its representative's position.
+struct OutVertices<'a> {
+    of_point: Vec<u32>,
+    positions: Vec<[f32; 3]>,
+    reps: &'a [[f32; 3]],
+    weld: &'a Weld,
+}
+
+impl OutVertices<'_> {
+    /// The output vertex of welded point `q`, created on first use.
+    #[inline]
+    fn vertex(&mut self, q: u32) -> u32 {
+        let v = &mut self.of_point[q as usize];
+        if *v == u32::MAX {
+            *v = self.positions.len() as u32;
+            self.positions
+                .push(self.reps[self.weld.representative[q as usize] as usize]);
+        }
+        *v
     }
-    *v
 }
 
 /// Representatives, the second clean-up (coinciding representatives, zero area,
@@ -1863,8 +1868,12 @@ fn finish(
     // distinct cells coincide (the cell triples are already distinct).
     let merged = weld.point_count() < positions.len();
     let mut set = TripleSet::with_capacity(if merged { stage1.cells.len() } else { 0 });
-    let mut vertex_of_point = vec![u32::MAX; weld.point_count()];
-    let mut out_positions = Vec::new();
+    let mut out = OutVertices {
+        of_point: vec![u32::MAX; weld.point_count()],
+        positions: Vec::new(),
+        reps: &positions,
+        weld: &weld,
+    };
     // Room for the coverage repair's few triangles as well: growing these vectors
     // afterwards would copy them whole.
     let room = stage1.cells.len() + stage1.cells.len() / coverage::FAR_BUDGET_PER + 16;
@@ -1891,22 +1900,11 @@ fn finish(
             duplicates += 1;
             continue;
         }
-        let t = p.map(|q| {
-            output_vertex(
-                &mut vertex_of_point,
-                &mut out_positions,
-                &positions,
-                &weld,
-                q,
-            )
-        });
+        let t = p.map(|q| out.vertex(q));
         triangles.push(t);
         groups.push(g);
     }
-    let mut vertex_of_cell: Vec<u32> = point_of
-        .iter()
-        .map(|&p| vertex_of_point[p as usize])
-        .collect();
+    let mut vertex_of_cell: Vec<u32> = point_of.iter().map(|&p| out.of_point[p as usize]).collect();
     // The coverage repair: parts whose triangles all collapsed (see `coverage`).
     let orphans: Vec<u32> = (0..positions.len() as u32)
         .zip(&vertex_of_cell)
@@ -1938,28 +1936,20 @@ fn finish(
         if merged && !set.insert(p) {
             continue;
         }
-        let t = p.map(|q| {
-            output_vertex(
-                &mut vertex_of_point,
-                &mut out_positions,
-                &positions,
-                &weld,
-                q,
-            )
-        });
+        let t = p.map(|q| out.vertex(q));
         triangles.push(t);
         groups.push(0);
         coverage += 1;
         if !merged {
             // One cell per point: only these three cells can have gained a vertex.
             for x in c {
-                vertex_of_cell[x as usize] = vertex_of_point[point_of[x as usize] as usize];
+                vertex_of_cell[x as usize] = out.of_point[point_of[x as usize] as usize];
             }
         }
     }
     if coverage > 0 && merged {
         for (v, &p) in vertex_of_cell.iter_mut().zip(point_of) {
-            *v = vertex_of_point[p as usize];
+            *v = out.of_point[p as usize];
         }
     }
     let working_bytes = table.bytes()
@@ -1968,13 +1958,13 @@ fn finish(
         + stage1.cells.capacity() * 16
         + set.bytes();
     let topo = if topology {
-        edge_counts(&triangles, out_positions.len())
+        edge_counts(&triangles, out.positions.len())
     } else {
         EdgeCounts::default()
     };
     let has_groups = !group_names.is_empty() || groups.iter().any(|&g| g != 0);
     let mesh = Mesh {
-        positions: out_positions,
+        positions: out.positions,
         triangles,
         attributes: Default::default(),
         groups: has_groups.then_some(groups),

@@ -352,7 +352,9 @@ pub struct ClusterStats {
     pub flattened_triangles: usize,
     /// Triangles added by the coverage repair: a thin part whose triangles all
     /// collapsed gets one sliver triangle per occupied cell two or more cells away
-    /// from the output's cells (see the module documentation, "Coverage repair").
+    /// from the output's cells, and a tip just over a cell border one toward its two
+    /// nearest covered neighbours (at most one per 256 output triangles; see the
+    /// module documentation, "Coverage repair").
     pub coverage_triangles: usize,
     /// The error (mesh units): see the module documentation.
     pub max_error: f64,

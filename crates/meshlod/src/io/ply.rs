@@ -85,12 +85,12 @@ pub fn write(mesh: &Mesh, ascii: bool, out: &mut Vec<u8>) -> Result<(), FormatEr
     write_impl(mesh, None, ascii, out)
 }
 
-/// Writes `mesh` as PLY like [`write`], with one more vertex property, `float quality`
+/// Writes `mesh` as PLY like [`write()`], with one more vertex property, `float quality`
 /// (MeshLab's per-vertex scalar), holding `quality[i]` for vertex `i`. Used for error
 /// heat maps.
 ///
 /// # Errors
-/// As [`write`]; also when `quality` does not have one value per vertex.
+/// As [`write()`]; also when `quality` does not have one value per vertex.
 pub fn write_with_quality(
     mesh: &Mesh,
     quality: &[f32],

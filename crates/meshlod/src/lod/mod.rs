@@ -3,7 +3,7 @@
 //! A [`ProgressiveMesh`] is a coarse base mesh plus the ordered vertex splits that
 //! undo, one at a time, the half-edge collapses a simplification run performed
 //! (Melax's cost, or QEM restricted to endpoints). Every prefix of the splits is a
-//! valid mesh: this is what the `.pmesh` format ([`pmesh`]) streams, and what the
+//! valid mesh: this is what the `.pmesh` format ([`write_pmesh`], [`read_pmesh`]) streams, and what the
 //! [`Navigator`] moves through in both directions in time proportional to the
 //! number of splits applied.
 

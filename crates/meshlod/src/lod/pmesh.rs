@@ -171,7 +171,8 @@ fn write_attrs(out: &mut Vec<u8>, a: &VertexAttributes, w: usize) {
 }
 
 impl ProgressiveMesh {
-    /// Encodes as `.pmesh` (see the [module docs](self) for the layout).
+    /// Encodes as `.pmesh` (the layout is in the `lod::pmesh` module's source docs;
+    /// [`write_pmesh`](crate::lod::write_pmesh) writes it to a file).
     #[must_use]
     pub fn to_bytes(&self) -> Vec<u8> {
         let mut out = Vec::with_capacity(HEADER_LEN + 48 * self.positions.len());

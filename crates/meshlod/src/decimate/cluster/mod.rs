@@ -1906,14 +1906,17 @@ fn finish(
         triangles.push(t);
         groups.push(g);
     }
-    let mut vertex_of_cell: Vec<u32> = point_of.iter().map(|&p| out.of_point[p as usize]).collect();
-    // The coverage repair: parts whose triangles all collapsed (see `coverage`).
-    let orphans: Vec<u32> = (0..positions.len() as u32)
-        .zip(&vertex_of_cell)
-        .zip(accs)
-        .filter(|((_, &v), a)| v == u32::MAX && a.w > 0.0)
-        .map(|((c, _), _)| c)
-        .collect();
+    // The output vertex of each cell and, in the same pass, the coverage repair's
+    // orphans: occupied cells without one (parts whose triangles all collapsed).
+    let mut vertex_of_cell: Vec<u32> = Vec::with_capacity(point_of.len());
+    let mut orphans: Vec<u32> = Vec::new();
+    for (c, (&p, a)) in point_of.iter().zip(accs).enumerate() {
+        let v = out.of_point[p as usize];
+        if v == u32::MAX && a.w > 0.0 {
+            orphans.push(c as u32);
+        }
+        vertex_of_cell.push(v);
+    }
     let repair = coverage::plan(
         table,
         grid.dims,

@@ -168,14 +168,9 @@ impl Surface {
         let weld = Weld::exact(&mesh.positions);
         let np = weld.point_count();
         let has_attrs = !mesh.attributes.is_empty();
-        let canonical = if has_attrs {
-            canonical_wedges(mesh, &weld)
-        } else {
-            weld.point_of
-                .iter()
-                .map(|&p| weld.representative[p as usize])
-                .collect()
-        };
+        // Without attributes every vertex's wedge is its point's representative, which
+        // only the (then absent) per-corner wedges would record.
+        let canonical = has_attrs.then(|| canonical_wedges(mesh, &weld));
         let point_of = weld.point_of;
         let representative = weld.representative;
         let pos: Vec<[f32; 3]> = representative
@@ -183,16 +178,20 @@ impl Surface {
             .map(|&v| mesh.positions[v as usize])
             .collect();
 
-        // Triangles, without degenerate ones.
+        // Triangles, without degenerate ones, each counted under its smallest point.
         let mut repair = Repair::default();
-        let mut tri = Vec::with_capacity(mesh.triangles.len());
-        let mut tri_wedge = has_attrs.then(|| Vec::with_capacity(mesh.triangles.len()));
-        let mut tri_group = mesh
+        let mut kept = Vec::with_capacity(mesh.triangles.len());
+        let mut kept_wedge = has_attrs.then(|| Vec::with_capacity(mesh.triangles.len()));
+        let mut kept_group = mesh
             .groups
             .as_ref()
             .map(|_| Vec::with_capacity(mesh.triangles.len()));
+        let mut count = vec![0u32; np + 1];
         for (ti, t) in mesh.triangles.iter().enumerate() {
-            let w = t.map(|v| canonical[v as usize]);
+            let w = match &canonical {
+                Some(c) => t.map(|v| c[v as usize]),
+                None => *t,
+            };
             let p = w.map(|v| point_of[v as usize]);
             if p[0] == p[1] || p[1] == p[2] || p[0] == p[2] {
                 repair.degenerate_triangles += 1;
@@ -207,48 +206,68 @@ impl Surface {
                 repair.degenerate_triangles += 1;
                 continue;
             }
-            tri.push(p);
-            if let Some(tw) = &mut tri_wedge {
+            count[p[0].min(p[1]).min(p[2]) as usize + 1] += 1;
+            kept.push(p);
+            if let Some(tw) = &mut kept_wedge {
                 tw.push(w);
             }
-            if let (Some(tg), Some(g)) = (&mut tri_group, &mesh.groups) {
+            if let (Some(tg), Some(g)) = (&mut kept_group, &mesh.groups) {
                 tg.push(g[ti]);
             }
         }
+        drop(canonical);
 
-        // Order triangles by their smallest point (a counting sort, O(n)): the
+        // Order triangles by their smallest point (a stable counting sort, O(n)): the
         // triangles around a point then sit close together in memory, which is what
-        // every fan walk touches.
-        {
-            let mut count = vec![0u32; np + 1];
-            for t in &tri {
-                count[t.iter().copied().min().unwrap_or(0) as usize + 1] += 1;
-            }
-            for i in 0..np {
-                count[i + 1] += count[i];
-            }
-            let mut order = vec![0u32; tri.len()];
-            for (i, t) in tri.iter().enumerate() {
-                let m = t.iter().copied().min().unwrap_or(0) as usize;
-                order[count[m] as usize] = i as u32;
-                count[m] += 1;
-            }
-            tri = order.iter().map(|&i| tri[i as usize]).collect();
-            if let Some(tw) = &mut tri_wedge {
-                *tw = order.iter().map(|&i| tw[i as usize]).collect();
-            }
-            if let Some(tg) = &mut tri_group {
-                *tg = order.iter().map(|&i| tg[i as usize]).collect();
-            }
+        // every fan walk touches, and copies of one triangle sit in one group.
+        for i in 0..np {
+            count[i + 1] += count[i];
         }
+        let n = kept.len();
+        let mut tri = vec![[0u32; 3]; n];
+        let mut dest = Vec::with_capacity(n);
+        for t in &kept {
+            let m = t[0].min(t[1]).min(t[2]) as usize;
+            let d = count[m];
+            count[m] += 1;
+            tri[d as usize] = *t;
+            dest.push(d);
+        }
+        drop(kept);
+        // `count[m]` is now the end of point `m`'s group (and the start of `m + 1`'s).
+        let scatter = |v: Vec<[u32; 3]>| {
+            let mut out = vec![[0u32; 3]; n];
+            for (&d, x) in dest.iter().zip(v) {
+                out[d as usize] = x;
+            }
+            out
+        };
+        let tri_wedge = kept_wedge.map(scatter);
+        let tri_group = kept_group.map(|v| {
+            let mut out = vec![0u32; n];
+            for (&d, x) in dest.iter().zip(v) {
+                out[d as usize] = x;
+            }
+            out
+        });
+        drop(dest);
+        repair.duplicate_triangles = remove_duplicates(&mut tri, &count[..np]);
 
-        let diag = mesh.bbox_diagonal();
-        let center = mesh.bounding_box(false).map_or([0.0; 3], |(lo, hi)| {
-            [
+        let (diag, center) = mesh.bounding_box(false).map_or((0.0, [0.0; 3]), |(lo, hi)| {
+            // As `Mesh::bbox_diagonal`, from the one box.
+            let diag = (0..3)
+                .map(|k| {
+                    let d = f64::from(hi[k]) - f64::from(lo[k]);
+                    d * d
+                })
+                .sum::<f64>()
+                .sqrt();
+            let center = [
                 0.5 * (f64::from(lo[0]) + f64::from(hi[0])),
                 0.5 * (f64::from(lo[1]) + f64::from(hi[1])),
                 0.5 * (f64::from(lo[2]) + f64::from(hi[2])),
-            ]
+            ];
+            (diag, center)
         });
         let eps = f64::from(f32::EPSILON) * diag;
         let mut s = Self {
@@ -283,8 +302,7 @@ impl Surface {
             fold_cos: 0.0,
         };
         s.build_fans();
-        repair.duplicate_triangles = s.remove_duplicates();
-        s.live_tris = s.tri.iter().filter(|t| t[0] != DEAD).count();
+        s.live_tris = n - repair.duplicate_triangles;
 
         // Wedges: does any point have corners with different wedges?
         let mut seams = false;
@@ -337,16 +355,36 @@ impl Surface {
         (s, repair)
     }
 
-    /// Builds the fan CSR from the live triangles.
+    /// Builds the fans from the live triangles (as [`FanCsr::build`], straight into
+    /// the per-point records).
     fn build_fans(&mut self) {
-        let csr = FanCsr::build(self.pos.len(), &self.tri, |t| (t[0] != DEAD).then_some(*t));
-        self.fan_slot = csr
-            .start
-            .iter()
-            .zip(csr.len.iter().zip(csr.cap.iter()))
-            .map(|(&start, (&len, &cap))| FanSlot { start, len, cap })
-            .collect();
-        self.fans = csr.fans;
+        let mut slot = vec![FanSlot::default(); self.pos.len()];
+        for t in &self.tri {
+            if t[0] != DEAD {
+                for &p in t {
+                    slot[p as usize].len += 1;
+                }
+            }
+        }
+        let mut total = 0u32;
+        for s in &mut slot {
+            s.start = total;
+            s.cap = if s.len == 0 { 0 } else { s.len + FAN_SLACK };
+            s.len = 0;
+            total += s.cap;
+        }
+        let mut fans = vec![DEAD; total as usize];
+        for (ti, t) in self.tri.iter().enumerate() {
+            if t[0] != DEAD {
+                for &p in t {
+                    let s = &mut slot[p as usize];
+                    fans[(s.start + s.len) as usize] = ti as u32;
+                    s.len += 1;
+                }
+            }
+        }
+        self.fan_slot = slot;
+        self.fans = fans;
         self.fan_garbage = 0;
     }
 
@@ -384,36 +422,6 @@ impl Surface {
             }
         }
         self.fan_garbage = 0;
-    }
-
-    /// Marks duplicate triangles dead and removes them from the fans; returns how many.
-    fn remove_duplicates(&mut self) -> usize {
-        let mut dups = 0;
-        for t in 0..self.tri.len() {
-            let tt = self.tri[t];
-            let key = sorted3(tt);
-            let m = key[0];
-            let s = self.fan_slot[m as usize].start as usize;
-            let l = self.fan_slot[m as usize].len as usize;
-            let mut dup = false;
-            for &t2 in &self.fans[s..s + l] {
-                if (t2 as usize) < t
-                    && self.tri[t2 as usize][0] != DEAD
-                    && sorted3(self.tri[t2 as usize]) == key
-                {
-                    dup = true;
-                    break;
-                }
-            }
-            if dup {
-                self.tri[t] = [DEAD; 3];
-                dups += 1;
-            }
-        }
-        if dups > 0 {
-            self.build_fans();
-        }
-        dups
     }
 
     #[inline]
@@ -729,44 +737,51 @@ impl Surface {
     ///
     /// With `p` at corner `k` of each fan triangle, `a = tt[k+1]` and `b = tt[k+2]`:
     /// in an oriented disc every `b` is the `a` of exactly the next triangle, so
-    /// following `b → a` visits every triangle once.
-    pub(crate) fn single_oriented_fan(&self, p: u32) -> Option<bool> {
+    /// following `b → a` visits every triangle once. The `a`s must be distinct (two
+    /// equal ones cannot both be reached); each is marked with its triangle's place in
+    /// the fan, so finding the next triangle is one lookup.
+    pub(crate) fn single_oriented_fan(&mut self, p: u32) -> Option<bool> {
         let s = self.fan_slot[p as usize].start as usize;
         let fl = self.fan_slot[p as usize].len as usize;
-        let (mut a, mut b) = ([0u32; 16], [0u32; 16]);
+        let g = self.next_gen();
+        let mut b = [0u32; 16];
         for i in 0..fl {
             let tt = self.tri[self.fans[s + i] as usize];
-            let k = if tt[0] == p {
-                0
+            let (a, bi) = if tt[0] == p {
+                (tt[1], tt[2])
             } else if tt[1] == p {
-                1
+                (tt[2], tt[0])
             } else {
-                2
+                (tt[0], tt[1])
             };
-            a[i] = tt[(k + 1) % 3];
-            b[i] = tt[(k + 2) % 3];
+            let ai = a as usize;
+            if self.mark[ai] == g {
+                return None;
+            }
+            self.mark[ai] = g;
+            self.slot[ai] = i as u32;
+            b[i] = bi;
         }
-        // next[i]: the triangle whose `a` is `b[i]`; the `a`s must be distinct.
+        // next[i]: the triangle whose `a` is `b[i]`.
         let mut next = [u8::MAX; 16];
-        let mut has_prev = [false; 16];
+        let mut has_prev = 0u32;
         let mut open = 0;
         for i in 0..fl {
-            for j in 0..fl {
-                if a[j] == b[i] {
-                    if next[i] != u8::MAX || has_prev[j] {
-                        return None;
-                    }
-                    next[i] = j as u8;
-                    has_prev[j] = true;
+            let bi = b[i] as usize;
+            if self.mark[bi] == g {
+                let j = self.slot[bi];
+                if has_prev >> j & 1 != 0 {
+                    return None;
                 }
-            }
-            if next[i] == u8::MAX {
+                has_prev |= 1 << j;
+                next[i] = j as u8;
+            } else {
                 open += 1;
             }
         }
         let start = match open {
             0 => 0,
-            1 => (0..fl).find(|&j| !has_prev[j])?,
+            1 => (!has_prev).trailing_zeros() as usize,
             _ => return None,
         };
         // One walk must visit every triangle (one cycle, or one path for a border).
@@ -1543,6 +1558,45 @@ impl Surface {
     pub(crate) fn take_attributes(&mut self) -> VertexAttributes {
         std::mem::take(&mut self.attrs)
     }
+}
+
+/// Marks every triangle that repeats an earlier one over the same three points (any
+/// order or winding) [`DEAD`]; returns how many. `tri` is ordered by smallest point and
+/// `ends[m]` is where point `m`'s triangles end, so copies are in one group.
+fn remove_duplicates(tri: &mut [[u32; 3]], ends: &[u32]) -> usize {
+    let mut dups = 0;
+    let mut keys: Vec<(u64, u32)> = Vec::new();
+    let mut lo = 0usize;
+    for &end in ends {
+        let hi = end as usize;
+        let group = &mut tri[lo..hi];
+        let key = |t: [u32; 3]| {
+            let [_, b, c] = sorted3(t);
+            (u64::from(b) << 32) | u64::from(c)
+        };
+        if group.len() <= 8 {
+            for i in 1..group.len() {
+                let k = key(group[i]);
+                if group[..i].iter().any(|&t| t[0] != DEAD && key(t) == k) {
+                    group[i] = [DEAD; 3];
+                    dups += 1;
+                }
+            }
+        } else {
+            // Sorted by key then position: a copy follows its first occurrence.
+            keys.clear();
+            keys.extend(group.iter().enumerate().map(|(i, &t)| (key(t), i as u32)));
+            keys.sort_unstable();
+            for w in 1..keys.len() {
+                if keys[w].0 == keys[w - 1].0 {
+                    group[keys[w].1 as usize] = [DEAD; 3];
+                    dups += 1;
+                }
+            }
+        }
+        lo = hi;
+    }
+    dups
 }
 
 fn canonical_of_point(representative: &[u32], p: usize) -> u32 {

@@ -336,11 +336,11 @@ fn classification_fast_path_agrees() {
         ],
         vec![[0, 1, 2], [0, 3, 2], [0, 3, 4], [0, 4, 5], [0, 5, 1]],
     );
-    let s = surface(&flipped);
+    let mut s = surface(&flipped);
     assert_eq!(s.single_oriented_fan(0), None);
     assert_eq!(s.kind(0), VertexKind::Manifold);
     flipped.triangles[1] = [0, 2, 3];
-    let s = surface(&flipped);
+    let mut s = surface(&flipped);
     assert_eq!(s.single_oriented_fan(0), Some(false));
     // Whole meshes, closed and open: every point is judged by the fast path.
     for m in [
@@ -348,7 +348,7 @@ fn classification_fast_path_agrees() {
         generate::grid(4, 3, |x, y| x * y),
         generate::torus(8, 5, 2.0, 0.5),
     ] {
-        let s = surface(&m);
+        let mut s = surface(&m);
         for p in 0..s.point_count() as u32 {
             match s.single_oriented_fan(p) {
                 Some(false) => assert_eq!(s.kind(p), VertexKind::Manifold),

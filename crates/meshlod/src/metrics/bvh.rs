@@ -209,16 +209,18 @@ impl Bvh {
     #[inline(always)]
     fn build_morton_impl(positions: &[[f32; 3]], triangles: &[[u32; 3]]) -> Self {
         let n = triangles.len();
-        let corners = |t: &[u32; 3]| t.map(|i| positions[i as usize]);
         // Centroids (times 3) and their bounds. (Plain loops into sized vectors: the
         // iterator collects here did not vectorise and cost ~60 instructions each.)
-        let mut sums: Vec<[f32; 3]> = Vec::with_capacity(n);
+        let mut sums = vec![[0f32; 3]; n];
         let mut cb = Aabb::EMPTY;
-        for t in triangles {
-            let c = corners(t);
-            let sum: [f32; 3] = std::array::from_fn(|k| c[0][k] + c[1][k] + c[2][k]);
-            cb.grow(sum);
-            sums.push(sum);
+        for (sum, t) in sums.iter_mut().zip(triangles) {
+            let (a, b, c) = (
+                positions[t[0] as usize],
+                positions[t[1] as usize],
+                positions[t[2] as usize],
+            );
+            *sum = [a[0] + b[0] + c[0], a[1] + b[1] + c[1], a[2] + b[2] + c[2]];
+            cb.grow(*sum);
         }
         let scale: [f32; 3] = std::array::from_fn(|k| {
             let e = cb.hi[k] - cb.lo[k];
@@ -228,12 +230,12 @@ impl Bvh {
                 0.0
             }
         });
-        let mut keys: Vec<u64> = Vec::with_capacity(n);
-        for (t, c) in sums.iter().enumerate() {
+        let mut keys = vec![0u64; n];
+        for (t, (key, c)) in keys.iter_mut().zip(&sums).enumerate() {
             // Out-of-range values clamp into the grid: `as` saturates (negative and
             // NaN give 0), the `min` caps at 1023.
             let q = |k: usize| -> u32 { (((c[k] - cb.lo[k]) * scale[k]) as u32).min(1023) };
-            keys.push((u64::from(morton3(q(0), q(1), q(2))) << 32) | t as u64);
+            *key = (u64::from(morton3(q(0), q(1), q(2))) << 32) | t as u64;
         }
         drop(sums);
         crate::radix::sort_by_high_half(&mut keys);
@@ -267,11 +269,15 @@ impl Bvh {
             };
             split_node(&mut nodes, &mut work, ni, start, mid, end);
         }
-        let mut order: Vec<u32> = Vec::with_capacity(n);
-        let mut tris: Vec<[[f32; 3]; 3]> = Vec::with_capacity(n);
-        for &k in &keys {
-            order.push(k as u32);
-            tris.push(corners(&triangles[k as u32 as usize]));
+        let order: Vec<u32> = keys.iter().map(|&k| k as u32).collect();
+        let mut tris = vec![[[0f32; 3]; 3]; n];
+        for (c, &k) in tris.iter_mut().zip(&order) {
+            let t = &triangles[k as usize];
+            *c = [
+                positions[t[0] as usize],
+                positions[t[1] as usize],
+                positions[t[2] as usize],
+            ];
         }
         drop(keys);
         // Bounds bottom-up: children always follow their parent.
@@ -576,7 +582,7 @@ fn corners_of(positions: &[[f32; 3]], triangles: &[[u32; 3]]) -> Vec<[[f32; 3]; 
 
 /// Turns node `ni` (range `start..end`) into an inner node whose two children, side
 /// by side at the end of `nodes`, get `start..mid` and `mid..end`, queued in `work`.
-#[inline]
+#[inline(always)]
 fn split_node(
     nodes: &mut Vec<Node>,
     work: &mut Vec<(usize, usize, usize)>,

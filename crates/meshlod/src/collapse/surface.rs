@@ -745,8 +745,8 @@ impl Surface {
         let fl = self.fan_slot[p as usize].len as usize;
         let g = self.next_gen();
         let mut b = [0u32; 16];
-        for i in 0..fl {
-            let tt = self.tri[self.fans[s + i] as usize];
+        for (i, &t) in self.fans[s..s + fl].iter().enumerate() {
+            let tt = self.tri[t as usize];
             let (a, bi) = if tt[0] == p {
                 (tt[1], tt[2])
             } else if tt[1] == p {
@@ -766,8 +766,8 @@ impl Surface {
         let mut next = [u8::MAX; 16];
         let mut has_prev = 0u32;
         let mut open = 0;
-        for i in 0..fl {
-            let bi = b[i] as usize;
+        for (i, &bi) in b[..fl].iter().enumerate() {
+            let bi = bi as usize;
             if self.mark[bi] == g {
                 let j = self.slot[bi];
                 if has_prev >> j & 1 != 0 {

@@ -276,6 +276,53 @@ fn build_repairs() {
     assert_eq!(st.topology.degenerate_triangles, 2);
 }
 
+/// Duplicates are found among the triangles sharing a smallest point, both for a
+/// small group and for one of more than eight (sorted there): a fan of 12 around
+/// point 0 with three copies in either winding, and a copy away from point 0.
+/// The first occurrence of each triple stays, in place.
+#[test]
+fn build_removes_duplicates_in_large_groups() {
+    let mut positions = vec![[0.0f32, 0.0, 0.0]];
+    let mut triangles = Vec::new();
+    for i in 0..12u32 {
+        let a = i as f32 * std::f32::consts::TAU / 12.0;
+        positions.push([a.cos(), a.sin(), 0.1 * (i % 3) as f32]);
+        triangles.push([0, 1 + i, 1 + (i + 1) % 12]);
+    }
+    // Copies: two in the other winding, one rotated, one of the rim (smallest 1).
+    triangles.push([0, 4, 3]);
+    triangles.push([7, 0, 8]);
+    triangles.push([1, 2, 0]);
+    positions.push([0.5, 0.5, 1.0]);
+    triangles.push([1, 2, 13]);
+    triangles.push([13, 2, 1]);
+    let m = Mesh::from_triangles(positions, triangles.clone());
+    let (s, r) = Surface::build(&m, &BuildOptions::default());
+    assert_eq!(r.duplicate_triangles, 4);
+    assert_eq!(r.degenerate_triangles, 0);
+    assert_eq!(s.live_triangles(), 13);
+    assert_consistent(&s);
+    // The survivors are exactly the first occurrences, each triple once.
+    let key = |t: [u32; 3]| {
+        let mut k = t;
+        k.sort_unstable();
+        k
+    };
+    let mut live: Vec<[u32; 3]> = (0..s.triangle_slots() as u32)
+        .map(|t| s.triangle(t))
+        .filter(|t| t[0] != DEAD)
+        .collect();
+    let mut firsts: Vec<[u32; 3]> = Vec::new();
+    for &t in &triangles {
+        if !firsts.iter().any(|&f| key(f) == key(t)) {
+            firsts.push(t);
+        }
+    }
+    live.sort_unstable();
+    firsts.sort_unstable();
+    assert_eq!(live, firsts);
+}
+
 /// Three triangles chained through two bow-tie points: (u,v,x) links the fan of v
 /// (v,y,z) with the fan of x (x,s,t). Removing u along the border edge u–v would
 /// delete (u,v,x) and split the component in two, so it is refused.

@@ -253,22 +253,24 @@ impl Surface {
         drop(dest);
         repair.duplicate_triangles = remove_duplicates(&mut tri, &count[..np]);
 
-        let (diag, center) = mesh.bounding_box(false).map_or((0.0, [0.0; 3]), |(lo, hi)| {
-            // As `Mesh::bbox_diagonal`, from the one box.
-            let diag = (0..3)
-                .map(|k| {
-                    let d = f64::from(hi[k]) - f64::from(lo[k]);
-                    d * d
-                })
-                .sum::<f64>()
-                .sqrt();
-            let center = [
-                0.5 * (f64::from(lo[0]) + f64::from(hi[0])),
-                0.5 * (f64::from(lo[1]) + f64::from(hi[1])),
-                0.5 * (f64::from(lo[2]) + f64::from(hi[2])),
-            ];
-            (diag, center)
-        });
+        let (diag, center) = mesh
+            .bounding_box(false)
+            .map_or((0.0, [0.0; 3]), |(lo, hi)| {
+                // As `Mesh::bbox_diagonal`, from the one box.
+                let diag = (0..3)
+                    .map(|k| {
+                        let d = f64::from(hi[k]) - f64::from(lo[k]);
+                        d * d
+                    })
+                    .sum::<f64>()
+                    .sqrt();
+                let center = [
+                    0.5 * (f64::from(lo[0]) + f64::from(hi[0])),
+                    0.5 * (f64::from(lo[1]) + f64::from(hi[1])),
+                    0.5 * (f64::from(lo[2]) + f64::from(hi[2])),
+                ];
+                (diag, center)
+            });
         let eps = f64::from(f32::EPSILON) * diag;
         let mut s = Self {
             pos,

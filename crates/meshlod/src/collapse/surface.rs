@@ -17,7 +17,8 @@ const FAN_SLACK: u32 = 2;
 /// Point → triangle fans as one array with room to grow: point `p`'s fan is
 /// `fans[start[p]..start[p] + len[p]]`, in triangle order, with `cap[p] = len[p] +`
 /// [`FAN_SLACK`] slots reserved (unused ones hold [`DEAD`]; none for an unused point).
-/// Shared by the collapse operator's [`Surface`] and vertex removal's own surface.
+/// Vertex removal's surface uses it; [`Surface`] builds the same layout straight into
+/// its per-point records.
 pub(crate) struct FanCsr {
     pub fans: Vec<u32>,
     pub start: Vec<u32>,

@@ -2019,102 +2019,135 @@ impl EdgeCounts {
 /// Boundary and non-manifold edges and non-manifold vertices of `triangles` over
 /// `vertices` points, as [`crate::mesh::stats::TopologyStats`] counts them, for
 /// triangles with three distinct points and no two over the same points (the
-/// output's invariants). Linear in the output size: the `3t` edge sides are
-/// bucketed by their smaller end (a counting sort) and grouped by the other end
-/// within a bucket (a table indexed by that end), the sides of one edge give its
-/// valence, and the triangle corners at both ends of an edge are joined
-/// (union–find over corners), so a vertex's fans are its corners that remain roots.
+/// output's invariants). Linear in the output size: the `3t` edge sides are chained
+/// into one list per smaller end (as they come: no sort), each list is grouped by
+/// the other end (a table indexed by that end), and the sides of one edge give its
+/// valence. A vertex's fans are the connected components of its triangle corners,
+/// two corners joined when their triangles share an edge at the vertex. Off the
+/// non-manifold edges (whose ends are non-manifold anyway) a corner is joined to at
+/// most two others, one across each of its two sides, so the components are paths
+/// and cycles, counted by walking each once.
 fn edge_counts(triangles: &[[u32; 3]], vertices: usize) -> EdgeCounts {
-    // Counting sort of the sides by smaller end: `end[v]` first counts the sides of
-    // `v`'s bucket, then (prefix sums) is the bucket's end; placing a side moves it
-    // down, so that it ends as the bucket's start (`end[v + 1]` its end). The order
-    // within a bucket does not matter.
-    let mut end = vec![0u32; vertices + 1];
-    for tri in triangles {
-        for k in 0..3 {
-            let k1 = if k == 2 { 0 } else { k + 1 };
-            end[tri[k].min(tri[k1]) as usize] += 1;
-        }
+    /// No side (a list's end) or no link (a boundary or non-manifold side).
+    const NONE: u32 = u32::MAX;
+    /// A corner already walked.
+    const DONE: u32 = u32::MAX - 1;
+    /// Side `3t + k` of triangle `t` runs from its corner `3t + k` to the next one.
+    #[derive(Clone, Copy)]
+    struct Side {
+        /// The larger end.
+        b: u32,
+        /// The corners at the smaller and at the larger end.
+        ca: u32,
+        cb: u32,
+        /// The next side of the smaller end's list.
+        next: u32,
+        /// Corner `3t + k`'s links: across side `3t + k` and across the side
+        /// ending at it (the corner index doubles as the side index).
+        link: [u32; 2],
     }
-    let mut sum = 0;
-    for e in &mut end {
-        sum += *e;
-        *e = sum;
-    }
-    // Each side: its larger end, and the corners (`3t + k`) at its smaller and at
-    // its larger end. (`3t` stays below 2³²: the corners are `u32` and a mesh has
-    // fewer than 2³²/3 triangles in memory.)
-    let mut sides = vec![[0u32; 3]; 3 * triangles.len()];
-    for (t, tri) in triangles.iter().enumerate() {
-        let c = 3 * t as u32;
-        for k in 0..3 {
-            let k1 = if k == 2 { 0 } else { k + 1 };
-            let (a, b) = (tri[k], tri[k1]);
-            let (ca, cb) = (c + k as u32, c + k1 as u32);
-            let (small, side) = if a < b {
-                (a, [b, ca, cb])
-            } else {
-                (b, [a, cb, ca])
+    // The lists: `head[a]` is the last side whose smaller end is `a`. (`3t` stays
+    // below 2³²: the corners are `u32` and a mesh has fewer than 2³²/3 triangles in
+    // memory.)
+    let mut head = vec![NONE; vertices];
+    let heads = &mut head[..];
+    let mut sides: Vec<[Side; 3]> = triangles
+        .iter()
+        .enumerate()
+        .map(move |(t, tri)| {
+            let c = 3 * t as u32;
+            let mut side = |k: usize, k1: usize| {
+                let (a, b) = (tri[k], tri[k1]);
+                let (ck, ck1) = (c + k as u32, c + k1 as u32);
+                let (small, b, ca, cb) = if a < b {
+                    (a, b, ck, ck1)
+                } else {
+                    (b, a, ck1, ck)
+                };
+                let h = &mut heads[small as usize];
+                let next = *h;
+                *h = ck;
+                Side {
+                    b,
+                    ca,
+                    cb,
+                    next,
+                    link: [NONE; 2],
+                }
             };
-            let slot = &mut end[small as usize];
-            *slot -= 1;
-            sides[*slot as usize] = side;
-        }
-    }
-    let mut parent: Vec<u32> = (0..3 * triangles.len() as u32).collect();
-    fn find(parent: &mut [u32], mut x: u32) -> u32 {
-        while parent[x as usize] != x {
-            let up = parent[parent[x as usize] as usize];
-            parent[x as usize] = up;
-            x = up;
-        }
-        x
-    }
-    let union = |parent: &mut [u32], a: u32, b: u32| {
-        let (ra, rb) = (find(parent, a), find(parent, b));
-        if ra != rb {
-            parent[ra.max(rb) as usize] = ra.min(rb);
-        }
-    };
+            [side(0, 1), side(1, 2), side(2, 0)]
+        })
+        .collect();
+    let sides = sides.as_flattened_mut();
     let mut counts = EdgeCounts::default();
-    // Per vertex: its fans (corners left as roots) plus 2 when it is on a
-    // non-manifold edge, so that it is non-manifold exactly when this is at least 2.
+    // Per vertex: its fans plus 2 when it is on a non-manifold edge, so that it is
+    // non-manifold exactly when this is at least 2.
     let mut fans = vec![0u32; vertices];
-    // Per larger end `b` while the bucket of `a` is scanned: the bucket that last
-    // saw it (`a + 1`; 0 = none), the edge's first side and its number of sides.
-    // No sort: the later sides of an edge are joined to its first one, and the
-    // counts follow the sides as they come (one side: boundary; a second: not;
-    // a third: non-manifold).
+    // Per larger end `b` while the list of `a` is scanned: the list that last saw
+    // it (`a + 1`; 0 = none), the edge's first side and its number of sides. The
+    // counts follow the sides as they come (one side: boundary; a second: not; a
+    // third: non-manifold), and the second side of an edge is linked to the first
+    // at both ends.
     let mut seen = vec![[0u32; 3]; vertices];
-    for a in 0..vertices {
-        let bucket = &sides[end[a] as usize..end[a + 1] as usize];
+    for (a, &first) in head.iter().enumerate() {
         let stamp = a as u32 + 1;
-        for (i, side) in bucket.iter().enumerate() {
-            let b = side[0] as usize;
-            let s = &mut seen[b];
-            if s[0] != stamp {
-                *s = [stamp, i as u32, 1];
+        let mut s = first;
+        while let Some(&Side {
+            b, ca, cb, next, ..
+        }) = sides.get(s as usize)
+        {
+            let e = &mut seen[b as usize];
+            if e[0] != stamp {
+                *e = [stamp, s, 1];
                 counts.boundary_edges += 1;
             } else {
-                s[2] += 1;
-                match s[2] {
-                    2 => counts.boundary_edges -= 1,
+                e[2] += 1;
+                match e[2] {
+                    2 => {
+                        counts.boundary_edges -= 1;
+                        let f = e[1];
+                        let Side { ca: fa, cb: fb, .. } = sides[f as usize];
+                        // A corner's link across side `x` is its slot 0 when it is
+                        // corner `x` (the side starts there), else its slot 1.
+                        sides[ca as usize].link[usize::from(ca != s)] = fa;
+                        sides[cb as usize].link[usize::from(cb != s)] = fb;
+                        sides[fa as usize].link[usize::from(fa != f)] = ca;
+                        sides[fb as usize].link[usize::from(fb != f)] = cb;
+                    }
                     3 => {
                         counts.non_manifold_edges += 1;
                         fans[a] += 2;
-                        fans[b] += 2;
+                        fans[b as usize] += 2;
                     }
                     _ => {}
                 }
-                let first = bucket[s[1] as usize];
-                union(&mut parent, first[1], side[1]);
-                union(&mut parent, first[2], side[2]);
             }
+            s = next;
         }
     }
-    // A root of the union–find is its own parent: no search needed.
-    for (c, (&p, &v)) in parent.iter().zip(triangles.as_flattened()).enumerate() {
-        fans[v as usize] += u32::from(p == c as u32);
+    // Each unwalked corner starts a new fan of its vertex: walk it both ways (a
+    // path ends at `NONE`, a cycle back at its start), marking the corners `DONE`.
+    let flat = triangles.as_flattened();
+    for c in 0..sides.len().min(flat.len()) {
+        let [l0, l1] = sides[c].link;
+        if l0 == DONE {
+            continue;
+        }
+        sides[c].link = [DONE; 2];
+        fans[flat[c] as usize] += 1;
+        for mut x in [l0, l1] {
+            let mut prev = c as u32;
+            while let Some(side) = sides.get_mut(x as usize) {
+                let [y0, y1] = side.link;
+                if y0 == DONE {
+                    break;
+                }
+                side.link = [DONE; 2];
+                let next = if y0 == prev { y1 } else { y0 };
+                prev = x;
+                x = next;
+            }
+        }
     }
     counts.non_manifold_vertices = fans.iter().filter(|&&f| f > 1).count();
     counts

@@ -722,7 +722,7 @@ pub fn cluster_mesh(
     let hi = hi32.map(f64::from);
     let diag = diagonal(lo, hi);
     let n = mesh.triangles.len();
-    let area = area_estimate(n, |t| tri_of(mesh, t));
+    let area = crate::isa::dispatch!(area_estimate(n, |t| tri_of(mesh, t)));
     let mut pipeline = InMemory {
         mesh,
         options,
@@ -981,6 +981,21 @@ const PROJECTED_DENSITY: f64 = 1.74;
 /// cells appears or a centred axis flips) comes closest to `goal`; `None` for an
 /// empty range or no model.
 fn model_step(lo: [f64; 3], hi: [f64; 3], kp: f64, goal: usize, from: f64, to: f64) -> Option<f64> {
+    // The AVX2 build rounds with one instruction where the baseline calls `floor`
+    // (the same value: rounding down is exact).
+    crate::isa::dispatch!(model_step_impl(lo, hi, kp, goal, from, to))
+}
+
+/// [`model_step`], inlined into each build.
+#[inline(always)]
+fn model_step_impl(
+    lo: [f64; 3],
+    hi: [f64; 3],
+    kp: f64,
+    goal: usize,
+    from: f64,
+    to: f64,
+) -> Option<f64> {
     if !(kp > 0.0 && from > 0.0 && to > from && to.is_finite()) || goal == 0 {
         return None;
     }
@@ -1030,6 +1045,7 @@ fn edge_cross(t: &[[f32; 3]; 3]) -> [f64; 3] {
 /// The total projected area ([`projected_area_of`]) of `n` triangles estimated from
 /// every `k`-th one (at most [`AREA_SAMPLE`]), summed in order: only the search's
 /// first guess uses it, and both paths compute it the same way.
+#[inline(always)]
 fn area_estimate(n: usize, tri: impl Fn(usize) -> [[f32; 3]; 3]) -> f64 {
     if n == 0 {
         return 0.0;
@@ -1156,6 +1172,7 @@ fn count_distinct(
 /// they are gathered again and put in an exact set of cell triples. `record` keeps
 /// the first triangle over each triple, in order. Returns the count (the triples)
 /// and the number of triangles with three distinct cells.
+#[inline(always)]
 fn count_small(
     tris: &[[u32; 3]],
     cells: &[u32],
@@ -1180,8 +1197,17 @@ fn count_small(
         record.extend_from_slice(&idx[..m]);
     }
     let three = record.len();
-    record.retain(|&t| set.insert(tris[t as usize].map(cell)));
-    (record.len(), three)
+    // `retain`, as a plain loop (inlined into the AVX2 build).
+    let mut kept = 0;
+    for i in 0..three {
+        let t = record[i];
+        if set.insert(tris[t as usize].map(cell)) {
+            record[kept] = t;
+            kept += 1;
+        }
+    }
+    record.truncate(kept);
+    (kept, three)
 }
 
 /// Expected occupied cells for about `triangles` output triangles (about two
@@ -1302,8 +1328,18 @@ impl InMemory<'_> {
             // (sequentially written as it is computed, not zeroed first).
             self.small.clear();
             if points.len() < PAR_COUNT || rayon::current_num_threads() == 1 {
-                self.small
-                    .extend(points.iter().map(|&p| grid.linear_u32(p)));
+                let small = &mut self.small;
+                small.reserve(points.len());
+                // Through a buffer on the stack: a plain loop that vectorises in
+                // the AVX2 build (an iterator adapter's `fold` would stay out of
+                // line, outside it).
+                crate::isa::dispatch!(for chunk in points.chunks(256) {
+                    let mut buf = [0u32; 256];
+                    for (o, &p) in buf.iter_mut().zip(chunk) {
+                        *o = grid.linear_u32(p);
+                    }
+                    small.extend_from_slice(&buf[..chunk.len()]);
+                });
             } else {
                 self.small.resize(points.len(), 0);
                 points
@@ -1337,7 +1373,9 @@ impl Pipeline for InMemory<'_> {
         let sequential = tris.len() < PAR_COUNT || rayon::current_num_threads() == 1;
         self.first_only = small_grid(grid) && sequential;
         let c = if self.first_only {
-            let (c, three) = count_small(tris, small, &mut self.exact, goal, &mut self.distinct);
+            let (exact, distinct) = (&mut self.exact, &mut self.distinct);
+            let (c, three) =
+                crate::isa::dispatch!(count_small(tris, small, &mut *exact, goal, &mut *distinct));
             self.three = three;
             c
         } else if small_grid(grid) {
@@ -1470,7 +1508,27 @@ impl Pipeline for InMemory<'_> {
         let shards = rayon::current_num_threads().clamp(1, 64);
         let n = mesh.triangles.len();
         if shards == 1 || n < PAR_ACCUMULATE {
-            accumulate(&mut accs, 0, Some(&mut used), None);
+            // One pass over every triangle: its AVX2 build when the CPU has it (the
+            // same operations, so the same sums bit for bit; see `crate::isa`).
+            let a = Accumulation {
+                mesh,
+                vcell: vcell_ref,
+                origin: grid.origin,
+                how,
+                factors: if how == Representative::Quadric {
+                    None
+                } else {
+                    factors
+                },
+                spans: None,
+            };
+            let (accs, used) = (&mut accs[..], &mut used[..]);
+            match how {
+                Representative::Quadric => {
+                    crate::isa::dispatch!(a.run_all::<true>(accs, Some(&mut *used)))
+                }
+                _ => crate::isa::dispatch!(a.run_all::<false>(accs, Some(&mut *used))),
+            }
         } else {
             // Workers own contiguous ranges of cells. The span of cell ids of every
             // block of triangles (and the used vertices) first, in parallel, so that a
@@ -1514,35 +1572,9 @@ impl Pipeline for InMemory<'_> {
         // of vertices, merged in range order (ties keep the lowest index, as
         // sequentially).
         let n_out = out.mesh.positions.len();
+        let (outp, of_cell) = (&out.mesh.positions[..], &out.vertex_of_cell[..]);
         let closest = |range: std::ops::Range<usize>| {
-            let mut best = vec![(f64::INFINITY, u32::MAX); n_out];
-            // Slices of one length per index kind: one bounds check each.
-            let outp = &out.mesh.positions[..n_out];
-            let best_of = &mut best[..n_out];
-            let of_cell = &out.vertex_of_cell[..];
-            let start = range.start;
-            let own = used[range.clone()]
-                .iter()
-                .zip(&vcell[range.clone()])
-                .zip(&mesh.positions[range]);
-            for (i, ((&u, &c), p)) in own.enumerate() {
-                if !u {
-                    continue;
-                }
-                let o = of_cell[c as usize] as usize;
-                if o >= n_out {
-                    continue;
-                }
-                let r = outp[o];
-                let x = [0, 1, 2].map(|k| f64::from(p[k]) - f64::from(r[k]));
-                // The sum in this order (a sum from ±0 adds the same).
-                let d = x[0] * x[0] + x[1] * x[1] + x[2] * x[2];
-                let b = &mut best_of[o];
-                if d < b.0 {
-                    *b = (d, (start + i) as u32);
-                }
-            }
-            best
+            closest_sources(outp, of_cell, &used, &vcell, &mesh.positions, range)
         };
         let nv = vcell.len();
         let parts = if shards > 2 && nv >= 2 * PAR_MIN {
@@ -1553,6 +1585,18 @@ impl Pipeline for InMemory<'_> {
         let per = nv.div_ceil(parts);
         let topo = || edge_counts(&out.mesh.triangles, n_out);
         let sources = || -> Vec<Vec<(f64, u32)>> {
+            if parts == 1 {
+                // One range: no pool.
+                let (used, vcell, points) = (&used[..], &vcell[..], &mesh.positions[..]);
+                return vec![crate::isa::dispatch!(closest_sources(
+                    outp,
+                    of_cell,
+                    used,
+                    vcell,
+                    points,
+                    0..nv
+                ))];
+            }
             (0..parts)
                 .into_par_iter()
                 .map(|i| closest(i * per..((i + 1) * per).min(nv)))
@@ -1586,8 +1630,53 @@ impl Pipeline for InMemory<'_> {
     }
 }
 
+/// Per output vertex (`outp`) the closest of the input vertices `range` (`points`)
+/// that a triangle uses (`used`) whose cell (`vcell`) maps to it (`of_cell`), as
+/// (squared distance, index); `(∞, u32::MAX)` where none. Ties keep the lowest
+/// index.
+#[inline(always)]
+fn closest_sources(
+    outp: &[[f32; 3]],
+    of_cell: &[u32],
+    used: &[bool],
+    vcell: &[u32],
+    points: &[[f32; 3]],
+    range: std::ops::Range<usize>,
+) -> Vec<(f64, u32)> {
+    let n_out = outp.len();
+    let mut best = vec![(f64::INFINITY, u32::MAX); n_out];
+    // Slices of one length per index kind: one bounds check each.
+    let best_of = &mut best[..n_out];
+    let start = range.start;
+    let own = used[range.clone()]
+        .iter()
+        .zip(&vcell[range.clone()])
+        .zip(&points[range]);
+    for (i, ((&u, &c), p)) in own.enumerate() {
+        if !u {
+            continue;
+        }
+        let o = of_cell[c as usize] as usize;
+        if o >= n_out {
+            continue;
+        }
+        let r = outp[o];
+        let x = [0, 1, 2].map(|k| f64::from(p[k]) - f64::from(r[k]));
+        // The sum in this order (a sum from ±0 adds the same).
+        let d = x[0] * x[0] + x[1] * x[1] + x[2] * x[2];
+        let b = &mut best_of[o];
+        if d < b.0 {
+            *b = (d, (start + i) as u32);
+        }
+    }
+    best
+}
+
 /// Inputs from this many triangles accumulate in parallel (over ranges of cells).
 const PAR_ACCUMULATE: usize = 1 << 18;
+
+/// From this many cells the representatives are computed in parallel.
+const PAR_REPS: usize = 1 << 14;
 
 /// The smallest and largest cell id of the corners of a block of [`BLOCK`] triangles.
 type Span = (u32, u32);
@@ -1663,6 +1752,7 @@ impl Accumulation<'_> {
 
     /// [`Self::run`] for one worker owning every cell: every triangle in order, its
     /// cells gathered (and its vertices marked in `used`) where its corners are read.
+    #[inline(always)]
     fn run_all<const QUADRIC: bool>(&self, accs: &mut [Acc], used: Option<&mut [bool]>) {
         let mesh = self.mesh;
         let nv = mesh.positions.len();
@@ -1848,17 +1938,24 @@ fn finish(
     group_names: Vec<String>,
     topology: bool,
 ) -> Finished {
-    let reps: Vec<([f32; 3], Option<f64>)> = accs
-        .par_iter()
-        .with_min_len(1024)
-        .enumerate()
-        .map(|(i, a)| {
-            let corner = grid.corner(grid::unpack(table.key(i as u32)));
-            let (x, err) = representative(a, corner, grid.cell, how);
-            let p: [f32; 3] = std::array::from_fn(|k| (grid.origin[k] + corner[k] + x[k]) as f32);
-            (p, err)
-        })
-        .collect();
+    let rep_of = |(i, a): (usize, &Acc)| rep_point(grid, table, how, i, a);
+    let reps: Vec<([f32; 3], Option<f64>)> =
+        if accs.len() < PAR_REPS || rayon::current_num_threads() == 1 {
+            // Sequentially (no pool), as the AVX2 build when the CPU has it.
+            // A plain loop: an iterator adapter's `fold` would stay out of line,
+            // outside the AVX2 build.
+            let mut reps = Vec::with_capacity(accs.len());
+            crate::isa::dispatch!(for (i, a) in accs.iter().enumerate() {
+                reps.push(rep_point(grid, table, how, i, a));
+            });
+            reps
+        } else {
+            accs.par_iter()
+                .with_min_len(1024)
+                .enumerate()
+                .map(rep_of)
+                .collect()
+        };
     let max_error = if how == Representative::Quadric {
         reps.iter().filter_map(|r| r.1).fold(0.0f64, f64::max)
     } else {
@@ -1902,7 +1999,8 @@ fn finish(
             duplicates += 1;
             continue;
         }
-        let t = p.map(|q| out.vertex(q));
+        // Written out (`map` calls its closure out of line), in corner order.
+        let t = [out.vertex(p[0]), out.vertex(p[1]), out.vertex(p[2])];
         triangles.push(t);
         groups.push(g);
     }
@@ -1941,7 +2039,8 @@ fn finish(
         if merged && !set.insert(p) {
             continue;
         }
-        let t = p.map(|q| out.vertex(q));
+        // Written out (`map` calls its closure out of line), in corner order.
+        let t = [out.vertex(p[0]), out.vertex(p[1]), out.vertex(p[2])];
         triangles.push(t);
         groups.push(0);
         coverage += 1;
@@ -1999,6 +2098,21 @@ fn finish(
     }
 }
 
+/// The representative of cell `i` (sums `a`) in mesh coordinates, and its error.
+#[inline(always)]
+fn rep_point(
+    grid: &Grid,
+    table: &CellTable,
+    how: Representative,
+    i: usize,
+    a: &Acc,
+) -> ([f32; 3], Option<f64>) {
+    let corner = grid.corner(grid::unpack(table.key(i as u32)));
+    let (x, err) = representative(a, corner, grid.cell, how);
+    let p: [f32; 3] = std::array::from_fn(|k| (grid.origin[k] + corner[k] + x[k]) as f32);
+    (p, err)
+}
+
 /// The manifold counts of the output.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 struct EdgeCounts {
@@ -2028,6 +2142,12 @@ impl EdgeCounts {
 /// most two others, one across each of its two sides, so the components are paths
 /// and cycles, counted by walking each once.
 fn edge_counts(triangles: &[[u32; 3]], vertices: usize) -> EdgeCounts {
+    crate::isa::dispatch!(edge_counts_impl(triangles, vertices))
+}
+
+/// [`edge_counts`], inlined into each build.
+#[inline(always)]
+fn edge_counts_impl(triangles: &[[u32; 3]], vertices: usize) -> EdgeCounts {
     /// No side (a list's end) or no link (a boundary or non-manifold side).
     const NONE: u32 = u32::MAX;
     /// A corner already walked.

@@ -130,8 +130,13 @@
 //! otherwise. The sequential accumulation computes each triangle's plane where it
 //! adds it (one pass: cells, used vertices, corners); the parallel workers compute
 //! the planes of a block of 64 triangles at a time (square roots and divisions in
-//! loops of their own), bit for bit the same. The output's
-//! manifold counts sort its edge sides per vertex (linear in the output).
+//! loops of their own), bit for bit the same. The output's manifold counts chain
+//! its edge sides per smaller end and walk each vertex's fans along per-corner
+//! links (linear in the output, no sort). The sequential in-memory loops (the
+//! accumulation, the probes' cells and counts, the representatives, the attribute
+//! sources, the manifold counts) run as an AVX2 build when the CPU has it
+//! ([`crate::isa`]: no FMA, so every operation rounds as in the baseline build and
+//! the output is the same bit for bit; `MESHLOD_NO_AVX2=1` forces the baseline).
 //!
 //! # Parallelism and determinism
 //! Vertex keys and the probes' distinct-cell tests are parallel maps. On inputs of

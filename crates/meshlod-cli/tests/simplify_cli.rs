@@ -256,3 +256,46 @@ fn cluster_count_tolerance() {
         assert!(err.contains("--count-tolerance"), "{bad:?}: {err}");
     }
 }
+
+/// Vertex clustering gives the same bytes (mesh and report, less timings and
+/// memory) whether its in-memory path runs as the AVX2 build or, with
+/// `MESHLOD_NO_AVX2=1`, as the baseline one (on a CPU without AVX2 both runs take
+/// the baseline path). A bumpy height field and a torus, every representative, a
+/// fine and a coarse target.
+#[test]
+fn cluster_avx2_and_baseline_builds_agree() {
+    let dir = tempfile::tempdir().unwrap();
+    let bumpy = dir.path().join("bumpy.ply");
+    let field = generate::grid(90, 70, |x, y| {
+        0.3 * (7.3 * x).sin() * (5.1 * y).cos() + 0.05 * (31.0 * x * y).sin()
+    });
+    meshlod::write_mesh(&bumpy, &field, &WriteOptions::default()).unwrap();
+    let torus = torus_file(dir.path());
+    let strip = |mut j: serde_json::Value| {
+        let o = j.as_object_mut().unwrap();
+        o.retain(|k, _| !k.contains("seconds") && k != "memory" && k != "output");
+        j
+    };
+    for input in [&bumpy, &torus] {
+        for how in ["quadric", "average", "weighted"] {
+            for ratio in ["0.1", "0.02"] {
+                let run = |no_avx2: &str, name: &str| {
+                    let o = dir.path().join(name);
+                    let out = Command::new(env!("CARGO_BIN_EXE_meshlod"))
+                        .env("MESHLOD_NO_AVX2", no_avx2)
+                        .args(["simplify", input.to_str().unwrap(), "-o"])
+                        .arg(&o)
+                        .args(["--method", "cluster", "--ratio", ratio])
+                        .args(["--representative", how, "--json"])
+                        .output()
+                        .expect("run meshlod");
+                    (strip(json(&out)), std::fs::read(&o).unwrap())
+                };
+                let (fast, base) = (run("0", "fast.ply"), run("1", "base.ply"));
+                assert_eq!(fast.0, base.0, "{input:?} {how} {ratio}");
+                assert!(fast.1 == base.1, "{input:?} {how} {ratio}: meshes differ");
+                assert!(fast.0["triangles_out"].as_u64().unwrap() > 10);
+            }
+        }
+    }
+}

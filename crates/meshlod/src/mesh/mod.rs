@@ -295,6 +295,13 @@ impl Mesh {
     /// # Errors
     /// The first violated invariant, as a [`MeshError`] naming the element.
     pub fn validate(&self) -> Result<(), MeshError> {
+        crate::isa::dispatch!(self.validate_impl())
+    }
+
+    /// [`Self::validate`], inlined into each build of `crate::isa::dispatch!` (the
+    /// AVX2 build scans eight indices a step).
+    #[inline(always)]
+    fn validate_impl(&self) -> Result<(), MeshError> {
         let n = self.positions.len();
         if u32::try_from(n).is_err() {
             return Err(MeshError::TooManyVertices { vertices: n });
@@ -356,6 +363,12 @@ impl Mesh {
     /// or of all vertices when `referenced_only` is false. `None` when there is nothing.
     #[must_use]
     pub fn bounding_box(&self, referenced_only: bool) -> Option<([f32; 3], [f32; 3])> {
+        crate::isa::dispatch!(self.bounding_box_impl(referenced_only))
+    }
+
+    /// [`Self::bounding_box`], inlined into each build of `crate::isa::dispatch!`.
+    #[inline(always)]
+    fn bounding_box_impl(&self, referenced_only: bool) -> Option<([f32; 3], [f32; 3])> {
         let mut lo = [f32::INFINITY; 3];
         let mut hi = [f32::NEG_INFINITY; 3];
         let mut any = false;

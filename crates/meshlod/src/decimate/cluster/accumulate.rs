@@ -34,7 +34,7 @@ impl Prepared {
     };
 
     /// Prepares the triangle `corners` for a grid at `origin`.
-    #[inline]
+    #[inline(always)]
     pub fn new(corners: &[[f32; 3]; 3], origin: [f64; 3]) -> Self {
         let (p, c, len2) = cross(corners, origin);
         let len = len2.sqrt();
@@ -47,7 +47,7 @@ impl Prepared {
     /// With `n = c/|c|`, `d = −n·p₀` and area `|c|/2`, the quadric entries are
     /// `A nᵢnⱼ = s cᵢcⱼ`, `A nᵢd = s cᵢe` and `A d² = s e²` where `s = 1/(2|c|)`
     /// and `e = −c·p₀`: one division for all.
-    #[inline]
+    #[inline(always)]
     fn from_parts(p: [[f64; 3]; 3], c: [f64; 3], len: f64, inv: f64) -> Self {
         // `len > 0 && len < ∞` written so that it stays two comparisons (as a
         // class test it compiles to some twenty integer instructions): a positive
@@ -83,7 +83,7 @@ pub(crate) const BLOCK: usize = 64;
 
 /// The corners relative to `origin`, the cross product of the edges and its squared
 /// length.
-#[inline]
+#[inline(always)]
 fn cross(corners: &[[f32; 3]; 3], origin: [f64; 3]) -> ([[f64; 3]; 3], [f64; 3], f64) {
     let p = corners.map(|c| std::array::from_fn(|k| f64::from(c[k]) - origin[k]));
     let e1 = sub(p[1], p[0]);
@@ -287,6 +287,7 @@ pub(crate) fn local_quadric(acc: &Acc, k: [f64; 3]) -> Quadric {
 /// The representative of a cell, in the cell's local frame, and its error: for the
 /// quadric representative the area-weighted RMS distance to the cell's planes
 /// ([`Quadric::distance`]), otherwise `None`.
+#[inline(always)]
 pub(crate) fn representative(
     acc: &Acc,
     corner: [f64; 3],

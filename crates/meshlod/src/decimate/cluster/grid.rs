@@ -46,6 +46,7 @@ impl Grid {
     /// large fraction when the centring flips between `n + 1` and `n + 2` cells, so
     /// a target count could fall between two grids.
     #[must_use]
+    #[inline(always)]
     pub fn new(lo: [f64; 3], hi: [f64; 3], cell: f64) -> Self {
         let extent = (0..3).map(|k| hi[k] - lo[k]).fold(0.0f64, f64::max);
         let finest = extent / f64::from(MAX_CELLS_PER_AXIS - 1);
@@ -112,6 +113,7 @@ impl Grid {
     /// cell). This follows the count's jumps where a cell count changes (a row
     /// appears, or a centred axis goes from `n + 1` to `n + 2` cells).
     #[must_use]
+    #[inline(always)]
     pub fn cover_factor(lo: [f64; 3], hi: [f64; 3], cell: f64) -> f64 {
         let grid = Self::new(lo, hi, cell);
         let r: f64 = (0..3)

@@ -130,8 +130,13 @@
 //! otherwise. The sequential accumulation computes each triangle's plane where it
 //! adds it (one pass: cells, used vertices, corners); the parallel workers compute
 //! the planes of a block of 64 triangles at a time (square roots and divisions in
-//! loops of their own), bit for bit the same. The output's
-//! manifold counts sort its edge sides per vertex (linear in the output).
+//! loops of their own), bit for bit the same. The output's manifold counts chain
+//! its edge sides per smaller end and walk each vertex's fans along per-corner
+//! links (linear in the output, no sort). The sequential in-memory loops (the
+//! accumulation, the probes' cells and counts, the representatives, the attribute
+//! sources, the manifold counts) run as an AVX2 build when the CPU has it
+//! ([`crate::isa`]: no FMA, so every operation rounds as in the baseline build and
+//! the output is the same bit for bit; `MESHLOD_NO_AVX2=1` forces the baseline).
 //!
 //! # Parallelism and determinism
 //! Vertex keys and the probes' distinct-cell tests are parallel maps. On inputs of
@@ -722,7 +727,7 @@ pub fn cluster_mesh(
     let hi = hi32.map(f64::from);
     let diag = diagonal(lo, hi);
     let n = mesh.triangles.len();
-    let area = area_estimate(n, |t| tri_of(mesh, t));
+    let area = crate::isa::dispatch!(area_estimate(n, |t| tri_of(mesh, t)));
     let mut pipeline = InMemory {
         mesh,
         options,
@@ -981,6 +986,21 @@ const PROJECTED_DENSITY: f64 = 1.74;
 /// cells appears or a centred axis flips) comes closest to `goal`; `None` for an
 /// empty range or no model.
 fn model_step(lo: [f64; 3], hi: [f64; 3], kp: f64, goal: usize, from: f64, to: f64) -> Option<f64> {
+    // The AVX2 build rounds with one instruction where the baseline calls `floor`
+    // (the same value: rounding down is exact).
+    crate::isa::dispatch!(model_step_impl(lo, hi, kp, goal, from, to))
+}
+
+/// [`model_step`], inlined into each build.
+#[inline(always)]
+fn model_step_impl(
+    lo: [f64; 3],
+    hi: [f64; 3],
+    kp: f64,
+    goal: usize,
+    from: f64,
+    to: f64,
+) -> Option<f64> {
     if !(kp > 0.0 && from > 0.0 && to > from && to.is_finite()) || goal == 0 {
         return None;
     }
@@ -1030,6 +1050,7 @@ fn edge_cross(t: &[[f32; 3]; 3]) -> [f64; 3] {
 /// The total projected area ([`projected_area_of`]) of `n` triangles estimated from
 /// every `k`-th one (at most [`AREA_SAMPLE`]), summed in order: only the search's
 /// first guess uses it, and both paths compute it the same way.
+#[inline(always)]
 fn area_estimate(n: usize, tri: impl Fn(usize) -> [[f32; 3]; 3]) -> f64 {
     if n == 0 {
         return 0.0;
@@ -1156,6 +1177,7 @@ fn count_distinct(
 /// they are gathered again and put in an exact set of cell triples. `record` keeps
 /// the first triangle over each triple, in order. Returns the count (the triples)
 /// and the number of triangles with three distinct cells.
+#[inline(always)]
 fn count_small(
     tris: &[[u32; 3]],
     cells: &[u32],
@@ -1180,8 +1202,17 @@ fn count_small(
         record.extend_from_slice(&idx[..m]);
     }
     let three = record.len();
-    record.retain(|&t| set.insert(tris[t as usize].map(cell)));
-    (record.len(), three)
+    // `retain`, as a plain loop (inlined into the AVX2 build).
+    let mut kept = 0;
+    for i in 0..three {
+        let t = record[i];
+        if set.insert(tris[t as usize].map(cell)) {
+            record[kept] = t;
+            kept += 1;
+        }
+    }
+    record.truncate(kept);
+    (kept, three)
 }
 
 /// Expected occupied cells for about `triangles` output triangles (about two
@@ -1302,8 +1333,18 @@ impl InMemory<'_> {
             // (sequentially written as it is computed, not zeroed first).
             self.small.clear();
             if points.len() < PAR_COUNT || rayon::current_num_threads() == 1 {
-                self.small
-                    .extend(points.iter().map(|&p| grid.linear_u32(p)));
+                let small = &mut self.small;
+                small.reserve(points.len());
+                // Through a buffer on the stack: a plain loop that vectorises in
+                // the AVX2 build (an iterator adapter's `fold` would stay out of
+                // line, outside it).
+                crate::isa::dispatch!(for chunk in points.chunks(256) {
+                    let mut buf = [0u32; 256];
+                    for (o, &p) in buf.iter_mut().zip(chunk) {
+                        *o = grid.linear_u32(p);
+                    }
+                    small.extend_from_slice(&buf[..chunk.len()]);
+                });
             } else {
                 self.small.resize(points.len(), 0);
                 points
@@ -1337,7 +1378,9 @@ impl Pipeline for InMemory<'_> {
         let sequential = tris.len() < PAR_COUNT || rayon::current_num_threads() == 1;
         self.first_only = small_grid(grid) && sequential;
         let c = if self.first_only {
-            let (c, three) = count_small(tris, small, &mut self.exact, goal, &mut self.distinct);
+            let (exact, distinct) = (&mut self.exact, &mut self.distinct);
+            let (c, three) =
+                crate::isa::dispatch!(count_small(tris, small, &mut *exact, goal, &mut *distinct));
             self.three = three;
             c
         } else if small_grid(grid) {
@@ -1470,7 +1513,27 @@ impl Pipeline for InMemory<'_> {
         let shards = rayon::current_num_threads().clamp(1, 64);
         let n = mesh.triangles.len();
         if shards == 1 || n < PAR_ACCUMULATE {
-            accumulate(&mut accs, 0, Some(&mut used), None);
+            // One pass over every triangle: its AVX2 build when the CPU has it (the
+            // same operations, so the same sums bit for bit; see `crate::isa`).
+            let a = Accumulation {
+                mesh,
+                vcell: vcell_ref,
+                origin: grid.origin,
+                how,
+                factors: if how == Representative::Quadric {
+                    None
+                } else {
+                    factors
+                },
+                spans: None,
+            };
+            let (accs, used) = (&mut accs[..], &mut used[..]);
+            match how {
+                Representative::Quadric => {
+                    crate::isa::dispatch!(a.run_all::<true>(accs, Some(&mut *used)))
+                }
+                _ => crate::isa::dispatch!(a.run_all::<false>(accs, Some(&mut *used))),
+            }
         } else {
             // Workers own contiguous ranges of cells. The span of cell ids of every
             // block of triangles (and the used vertices) first, in parallel, so that a
@@ -1514,35 +1577,9 @@ impl Pipeline for InMemory<'_> {
         // of vertices, merged in range order (ties keep the lowest index, as
         // sequentially).
         let n_out = out.mesh.positions.len();
+        let (outp, of_cell) = (&out.mesh.positions[..], &out.vertex_of_cell[..]);
         let closest = |range: std::ops::Range<usize>| {
-            let mut best = vec![(f64::INFINITY, u32::MAX); n_out];
-            // Slices of one length per index kind: one bounds check each.
-            let outp = &out.mesh.positions[..n_out];
-            let best_of = &mut best[..n_out];
-            let of_cell = &out.vertex_of_cell[..];
-            let start = range.start;
-            let own = used[range.clone()]
-                .iter()
-                .zip(&vcell[range.clone()])
-                .zip(&mesh.positions[range]);
-            for (i, ((&u, &c), p)) in own.enumerate() {
-                if !u {
-                    continue;
-                }
-                let o = of_cell[c as usize] as usize;
-                if o >= n_out {
-                    continue;
-                }
-                let r = outp[o];
-                let x = [0, 1, 2].map(|k| f64::from(p[k]) - f64::from(r[k]));
-                // The sum in this order (a sum from ±0 adds the same).
-                let d = x[0] * x[0] + x[1] * x[1] + x[2] * x[2];
-                let b = &mut best_of[o];
-                if d < b.0 {
-                    *b = (d, (start + i) as u32);
-                }
-            }
-            best
+            closest_sources(outp, of_cell, &used, &vcell, &mesh.positions, range)
         };
         let nv = vcell.len();
         let parts = if shards > 2 && nv >= 2 * PAR_MIN {
@@ -1553,6 +1590,18 @@ impl Pipeline for InMemory<'_> {
         let per = nv.div_ceil(parts);
         let topo = || edge_counts(&out.mesh.triangles, n_out);
         let sources = || -> Vec<Vec<(f64, u32)>> {
+            if parts == 1 {
+                // One range: no pool.
+                let (used, vcell, points) = (&used[..], &vcell[..], &mesh.positions[..]);
+                return vec![crate::isa::dispatch!(closest_sources(
+                    outp,
+                    of_cell,
+                    used,
+                    vcell,
+                    points,
+                    0..nv
+                ))];
+            }
             (0..parts)
                 .into_par_iter()
                 .map(|i| closest(i * per..((i + 1) * per).min(nv)))
@@ -1586,8 +1635,53 @@ impl Pipeline for InMemory<'_> {
     }
 }
 
+/// Per output vertex (`outp`) the closest of the input vertices `range` (`points`)
+/// that a triangle uses (`used`) whose cell (`vcell`) maps to it (`of_cell`), as
+/// (squared distance, index); `(∞, u32::MAX)` where none. Ties keep the lowest
+/// index.
+#[inline(always)]
+fn closest_sources(
+    outp: &[[f32; 3]],
+    of_cell: &[u32],
+    used: &[bool],
+    vcell: &[u32],
+    points: &[[f32; 3]],
+    range: std::ops::Range<usize>,
+) -> Vec<(f64, u32)> {
+    let n_out = outp.len();
+    let mut best = vec![(f64::INFINITY, u32::MAX); n_out];
+    // Slices of one length per index kind: one bounds check each.
+    let best_of = &mut best[..n_out];
+    let start = range.start;
+    let own = used[range.clone()]
+        .iter()
+        .zip(&vcell[range.clone()])
+        .zip(&points[range]);
+    for (i, ((&u, &c), p)) in own.enumerate() {
+        if !u {
+            continue;
+        }
+        let o = of_cell[c as usize] as usize;
+        if o >= n_out {
+            continue;
+        }
+        let r = outp[o];
+        let x = [0, 1, 2].map(|k| f64::from(p[k]) - f64::from(r[k]));
+        // The sum in this order (a sum from ±0 adds the same).
+        let d = x[0] * x[0] + x[1] * x[1] + x[2] * x[2];
+        let b = &mut best_of[o];
+        if d < b.0 {
+            *b = (d, (start + i) as u32);
+        }
+    }
+    best
+}
+
 /// Inputs from this many triangles accumulate in parallel (over ranges of cells).
 const PAR_ACCUMULATE: usize = 1 << 18;
+
+/// From this many cells the representatives are computed in parallel.
+const PAR_REPS: usize = 1 << 14;
 
 /// The smallest and largest cell id of the corners of a block of [`BLOCK`] triangles.
 type Span = (u32, u32);
@@ -1663,6 +1757,7 @@ impl Accumulation<'_> {
 
     /// [`Self::run`] for one worker owning every cell: every triangle in order, its
     /// cells gathered (and its vertices marked in `used`) where its corners are read.
+    #[inline(always)]
     fn run_all<const QUADRIC: bool>(&self, accs: &mut [Acc], used: Option<&mut [bool]>) {
         let mesh = self.mesh;
         let nv = mesh.positions.len();
@@ -1848,17 +1943,24 @@ fn finish(
     group_names: Vec<String>,
     topology: bool,
 ) -> Finished {
-    let reps: Vec<([f32; 3], Option<f64>)> = accs
-        .par_iter()
-        .with_min_len(1024)
-        .enumerate()
-        .map(|(i, a)| {
-            let corner = grid.corner(grid::unpack(table.key(i as u32)));
-            let (x, err) = representative(a, corner, grid.cell, how);
-            let p: [f32; 3] = std::array::from_fn(|k| (grid.origin[k] + corner[k] + x[k]) as f32);
-            (p, err)
-        })
-        .collect();
+    let rep_of = |(i, a): (usize, &Acc)| rep_point(grid, table, how, i, a);
+    let reps: Vec<([f32; 3], Option<f64>)> =
+        if accs.len() < PAR_REPS || rayon::current_num_threads() == 1 {
+            // Sequentially (no pool), as the AVX2 build when the CPU has it.
+            // A plain loop: an iterator adapter's `fold` would stay out of line,
+            // outside the AVX2 build.
+            let mut reps = Vec::with_capacity(accs.len());
+            crate::isa::dispatch!(for (i, a) in accs.iter().enumerate() {
+                reps.push(rep_point(grid, table, how, i, a));
+            });
+            reps
+        } else {
+            accs.par_iter()
+                .with_min_len(1024)
+                .enumerate()
+                .map(rep_of)
+                .collect()
+        };
     let max_error = if how == Representative::Quadric {
         reps.iter().filter_map(|r| r.1).fold(0.0f64, f64::max)
     } else {
@@ -1902,7 +2004,8 @@ fn finish(
             duplicates += 1;
             continue;
         }
-        let t = p.map(|q| out.vertex(q));
+        // Written out (`map` calls its closure out of line), in corner order.
+        let t = [out.vertex(p[0]), out.vertex(p[1]), out.vertex(p[2])];
         triangles.push(t);
         groups.push(g);
     }
@@ -1941,7 +2044,8 @@ fn finish(
         if merged && !set.insert(p) {
             continue;
         }
-        let t = p.map(|q| out.vertex(q));
+        // Written out (`map` calls its closure out of line), in corner order.
+        let t = [out.vertex(p[0]), out.vertex(p[1]), out.vertex(p[2])];
         triangles.push(t);
         groups.push(0);
         coverage += 1;
@@ -1999,6 +2103,21 @@ fn finish(
     }
 }
 
+/// The representative of cell `i` (sums `a`) in mesh coordinates, and its error.
+#[inline(always)]
+fn rep_point(
+    grid: &Grid,
+    table: &CellTable,
+    how: Representative,
+    i: usize,
+    a: &Acc,
+) -> ([f32; 3], Option<f64>) {
+    let corner = grid.corner(grid::unpack(table.key(i as u32)));
+    let (x, err) = representative(a, corner, grid.cell, how);
+    let p: [f32; 3] = std::array::from_fn(|k| (grid.origin[k] + corner[k] + x[k]) as f32);
+    (p, err)
+}
+
 /// The manifold counts of the output.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 struct EdgeCounts {
@@ -2019,102 +2138,141 @@ impl EdgeCounts {
 /// Boundary and non-manifold edges and non-manifold vertices of `triangles` over
 /// `vertices` points, as [`crate::mesh::stats::TopologyStats`] counts them, for
 /// triangles with three distinct points and no two over the same points (the
-/// output's invariants). Linear in the output size: the `3t` edge sides are
-/// bucketed by their smaller end (a counting sort) and grouped by the other end
-/// within a bucket (a table indexed by that end), the sides of one edge give its
-/// valence, and the triangle corners at both ends of an edge are joined
-/// (union–find over corners), so a vertex's fans are its corners that remain roots.
+/// output's invariants). Linear in the output size: the `3t` edge sides are chained
+/// into one list per smaller end (as they come: no sort), each list is grouped by
+/// the other end (a table indexed by that end), and the sides of one edge give its
+/// valence. A vertex's fans are the connected components of its triangle corners,
+/// two corners joined when their triangles share an edge at the vertex. Off the
+/// non-manifold edges (whose ends are non-manifold anyway) a corner is joined to at
+/// most two others, one across each of its two sides, so the components are paths
+/// and cycles, counted by walking each once.
 fn edge_counts(triangles: &[[u32; 3]], vertices: usize) -> EdgeCounts {
-    // Counting sort of the sides by smaller end: `end[v]` first counts the sides of
-    // `v`'s bucket, then (prefix sums) is the bucket's end; placing a side moves it
-    // down, so that it ends as the bucket's start (`end[v + 1]` its end). The order
-    // within a bucket does not matter.
-    let mut end = vec![0u32; vertices + 1];
-    for tri in triangles {
-        for k in 0..3 {
-            let k1 = if k == 2 { 0 } else { k + 1 };
-            end[tri[k].min(tri[k1]) as usize] += 1;
-        }
+    crate::isa::dispatch!(edge_counts_impl(triangles, vertices))
+}
+
+/// [`edge_counts`], inlined into each build.
+#[inline(always)]
+fn edge_counts_impl(triangles: &[[u32; 3]], vertices: usize) -> EdgeCounts {
+    /// No side (a list's end) or no link (a boundary or non-manifold side).
+    const NONE: u32 = u32::MAX;
+    /// A corner already walked.
+    const DONE: u32 = u32::MAX - 1;
+    /// Side `3t + k` of triangle `t` runs from its corner `3t + k` to the next one.
+    #[derive(Clone, Copy)]
+    struct Side {
+        /// The larger end.
+        b: u32,
+        /// The corners at the smaller and at the larger end.
+        ca: u32,
+        cb: u32,
+        /// The next side of the smaller end's list.
+        next: u32,
+        /// Corner `3t + k`'s links: across side `3t + k` and across the side
+        /// ending at it (the corner index doubles as the side index).
+        link: [u32; 2],
     }
-    let mut sum = 0;
-    for e in &mut end {
-        sum += *e;
-        *e = sum;
-    }
-    // Each side: its larger end, and the corners (`3t + k`) at its smaller and at
-    // its larger end. (`3t` stays below 2³²: the corners are `u32` and a mesh has
-    // fewer than 2³²/3 triangles in memory.)
-    let mut sides = vec![[0u32; 3]; 3 * triangles.len()];
-    for (t, tri) in triangles.iter().enumerate() {
-        let c = 3 * t as u32;
-        for k in 0..3 {
-            let k1 = if k == 2 { 0 } else { k + 1 };
-            let (a, b) = (tri[k], tri[k1]);
-            let (ca, cb) = (c + k as u32, c + k1 as u32);
-            let (small, side) = if a < b {
-                (a, [b, ca, cb])
-            } else {
-                (b, [a, cb, ca])
+    // The lists: `head[a]` is the last side whose smaller end is `a`. (`3t` stays
+    // below 2³²: the corners are `u32` and a mesh has fewer than 2³²/3 triangles in
+    // memory.)
+    let mut head = vec![NONE; vertices];
+    let heads = &mut head[..];
+    let mut sides: Vec<[Side; 3]> = triangles
+        .iter()
+        .enumerate()
+        .map(move |(t, tri)| {
+            let c = 3 * t as u32;
+            let mut side = |k: usize, k1: usize| {
+                let (a, b) = (tri[k], tri[k1]);
+                let (ck, ck1) = (c + k as u32, c + k1 as u32);
+                let (small, b, ca, cb) = if a < b {
+                    (a, b, ck, ck1)
+                } else {
+                    (b, a, ck1, ck)
+                };
+                let h = &mut heads[small as usize];
+                let next = *h;
+                *h = ck;
+                Side {
+                    b,
+                    ca,
+                    cb,
+                    next,
+                    link: [NONE; 2],
+                }
             };
-            let slot = &mut end[small as usize];
-            *slot -= 1;
-            sides[*slot as usize] = side;
-        }
-    }
-    let mut parent: Vec<u32> = (0..3 * triangles.len() as u32).collect();
-    fn find(parent: &mut [u32], mut x: u32) -> u32 {
-        while parent[x as usize] != x {
-            let up = parent[parent[x as usize] as usize];
-            parent[x as usize] = up;
-            x = up;
-        }
-        x
-    }
-    let union = |parent: &mut [u32], a: u32, b: u32| {
-        let (ra, rb) = (find(parent, a), find(parent, b));
-        if ra != rb {
-            parent[ra.max(rb) as usize] = ra.min(rb);
-        }
-    };
+            [side(0, 1), side(1, 2), side(2, 0)]
+        })
+        .collect();
+    let sides = sides.as_flattened_mut();
     let mut counts = EdgeCounts::default();
-    // Per vertex: its fans (corners left as roots) plus 2 when it is on a
-    // non-manifold edge, so that it is non-manifold exactly when this is at least 2.
+    // Per vertex: its fans plus 2 when it is on a non-manifold edge, so that it is
+    // non-manifold exactly when this is at least 2.
     let mut fans = vec![0u32; vertices];
-    // Per larger end `b` while the bucket of `a` is scanned: the bucket that last
-    // saw it (`a + 1`; 0 = none), the edge's first side and its number of sides.
-    // No sort: the later sides of an edge are joined to its first one, and the
-    // counts follow the sides as they come (one side: boundary; a second: not;
-    // a third: non-manifold).
+    // Per larger end `b` while the list of `a` is scanned: the list that last saw
+    // it (`a + 1`; 0 = none), the edge's first side and its number of sides. The
+    // counts follow the sides as they come (one side: boundary; a second: not; a
+    // third: non-manifold), and the second side of an edge is linked to the first
+    // at both ends.
     let mut seen = vec![[0u32; 3]; vertices];
-    for a in 0..vertices {
-        let bucket = &sides[end[a] as usize..end[a + 1] as usize];
+    for (a, &first) in head.iter().enumerate() {
         let stamp = a as u32 + 1;
-        for (i, side) in bucket.iter().enumerate() {
-            let b = side[0] as usize;
-            let s = &mut seen[b];
-            if s[0] != stamp {
-                *s = [stamp, i as u32, 1];
+        let mut s = first;
+        while let Some(&Side {
+            b, ca, cb, next, ..
+        }) = sides.get(s as usize)
+        {
+            let e = &mut seen[b as usize];
+            if e[0] != stamp {
+                *e = [stamp, s, 1];
                 counts.boundary_edges += 1;
             } else {
-                s[2] += 1;
-                match s[2] {
-                    2 => counts.boundary_edges -= 1,
+                e[2] += 1;
+                match e[2] {
+                    2 => {
+                        counts.boundary_edges -= 1;
+                        let f = e[1];
+                        let Side { ca: fa, cb: fb, .. } = sides[f as usize];
+                        // A corner's link across side `x` is its slot 0 when it is
+                        // corner `x` (the side starts there), else its slot 1.
+                        sides[ca as usize].link[usize::from(ca != s)] = fa;
+                        sides[cb as usize].link[usize::from(cb != s)] = fb;
+                        sides[fa as usize].link[usize::from(fa != f)] = ca;
+                        sides[fb as usize].link[usize::from(fb != f)] = cb;
+                    }
                     3 => {
                         counts.non_manifold_edges += 1;
                         fans[a] += 2;
-                        fans[b] += 2;
+                        fans[b as usize] += 2;
                     }
                     _ => {}
                 }
-                let first = bucket[s[1] as usize];
-                union(&mut parent, first[1], side[1]);
-                union(&mut parent, first[2], side[2]);
             }
+            s = next;
         }
     }
-    // A root of the union–find is its own parent: no search needed.
-    for (c, (&p, &v)) in parent.iter().zip(triangles.as_flattened()).enumerate() {
-        fans[v as usize] += u32::from(p == c as u32);
+    // Each unwalked corner starts a new fan of its vertex: walk it both ways (a
+    // path ends at `NONE`, a cycle back at its start), marking the corners `DONE`.
+    let flat = triangles.as_flattened();
+    for c in 0..sides.len().min(flat.len()) {
+        let [l0, l1] = sides[c].link;
+        if l0 == DONE {
+            continue;
+        }
+        sides[c].link = [DONE; 2];
+        fans[flat[c] as usize] += 1;
+        for mut x in [l0, l1] {
+            let mut prev = c as u32;
+            while let Some(side) = sides.get_mut(x as usize) {
+                let [y0, y1] = side.link;
+                if y0 == DONE {
+                    break;
+                }
+                side.link = [DONE; 2];
+                let next = if y0 == prev { y1 } else { y0 };
+                prev = x;
+                x = next;
+            }
+        }
     }
     counts.non_manifold_vertices = fans.iter().filter(|&&f| f > 1).count();
     counts

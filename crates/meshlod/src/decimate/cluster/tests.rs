@@ -350,7 +350,7 @@ fn topology_counts(m: &Mesh) -> (usize, usize, usize) {
 fn manifold_counts_agree_with_topology_stats() {
     // A bow-tie (two fans at 0), a fin (three triangles on 0–1) and a closed
     // tetrahedron.
-    let cases: [(&[[u32; 3]], usize, EdgeCounts); 3] = [
+    let cases: [(&[[u32; 3]], usize, EdgeCounts); 5] = [
         (
             &[[0, 1, 2], [0, 3, 4]],
             5,
@@ -376,6 +376,46 @@ fn manifold_counts_agree_with_topology_stats() {
                 non_manifold_edges: 0,
                 non_manifold_vertices: 0,
                 boundary_edges: 0,
+            },
+        ),
+        // Two closed tetrahedra sharing vertex 0 (two closed fans there, found only
+        // by walking them), the second one wound the other way round.
+        (
+            &[
+                [0, 1, 2],
+                [0, 3, 1],
+                [1, 3, 2],
+                [0, 2, 3],
+                [0, 5, 4],
+                [0, 4, 6],
+                [4, 5, 6],
+                [0, 6, 5],
+            ],
+            7,
+            EdgeCounts {
+                non_manifold_edges: 0,
+                non_manifold_vertices: 1,
+                boundary_edges: 0,
+            },
+        ),
+        // A closed fan and an open one at vertex 0 (a tetrahedron and a triangle on
+        // it), and a strip whose middle triangle is wound against its neighbours.
+        (
+            &[
+                [0, 1, 2],
+                [0, 3, 1],
+                [1, 3, 2],
+                [0, 2, 3],
+                [0, 4, 5],
+                [6, 7, 8],
+                [7, 8, 9],
+                [9, 8, 10],
+            ],
+            11,
+            EdgeCounts {
+                non_manifold_edges: 0,
+                non_manifold_vertices: 1,
+                boundary_edges: 8,
             },
         ),
     ];
@@ -414,6 +454,31 @@ fn arb_mesh() -> impl Strategy<Value = Mesh> {
 
 proptest! {
     #![proptest_config(ProptestConfig::with_cases(64))]
+
+    /// The manifold counts of random triangle sets over few points (pinched fans,
+    /// fins, mixed windings; three distinct points each, no two over the same
+    /// points, as in an output) agree with `TopologyStats`.
+    #[test]
+    fn edge_counts_agree_on_random_sets(
+        raw in proptest::collection::vec((0u32..9, 0u32..9, 0u32..9), 0..40),
+    ) {
+        let mut tris: Vec<[u32; 3]> = Vec::new();
+        let mut sets = std::collections::HashSet::new();
+        for (a, b, c) in raw {
+            let mut s = [a, b, c];
+            s.sort_unstable();
+            if a != b && b != c && a != c && sets.insert(s) {
+                tris.push([a, b, c]);
+            }
+        }
+        let s = TopologyStats::of(&tris, 9, |v| [v as f32, 0.0, 0.0]);
+        let want = EdgeCounts {
+            non_manifold_edges: s.non_manifold_edges,
+            non_manifold_vertices: s.non_manifold_vertices,
+            boundary_edges: s.boundary_edges,
+        };
+        prop_assert_eq!(edge_counts(&tris, 9), want);
+    }
 
     /// Random soups (repeated indices, duplicates, non-manifold): the output is
     /// always clean, and the search never needs more than three builds.

@@ -111,6 +111,20 @@ pub struct SimplifyArgs {
     /// (faster, inexact order; default: re-evaluated at once).
     #[arg(long, value_name = "P")]
     pub defer_neighbours: Option<f64>,
+    /// vertex-removal, with --defer-neighbours: defer only while the removed
+    /// point's cost is below F times the bounding-box diagonal; exact order from the
+    /// first removal that reaches it on (default: defer for the whole run).
+    #[arg(long, value_name = "F")]
+    pub defer_below: Option<f64>,
+    /// vertex-removal, with --defer-neighbours: bound a deferred neighbour's changed
+    /// fan at once and queue it at the larger of that bound and its deferred cost.
+    #[arg(long)]
+    pub defer_bound: bool,
+    /// vertex-removal, with --defer-neighbours: order slack while deferring (until
+    /// --defer-below's switch); `inf`: every planned candidate is removed when it
+    /// comes out (default: --order-slack).
+    #[arg(long, value_name = "S")]
+    pub defer_slack: Option<f64>,
     /// qem, melax: skip the orientation repair (diagonal swaps that turn triangles
     /// facing away from the input back toward it without raising the distance).
     #[arg(long)]
@@ -357,6 +371,19 @@ fn options(args: &SimplifyArgs) -> Result<SimplifyOptions> {
             bail!("--defer-neighbours {p} must be a finite number >= 1");
         }
         o = o.with_defer_neighbours(Some(p));
+    }
+    if let Some(f) = args.defer_below {
+        if !(f >= 0.0 && f.is_finite()) {
+            bail!("--defer-below {f} must be a finite number >= 0");
+        }
+        o = o.with_defer_below(Some(f));
+    }
+    o = o.with_defer_bound(args.defer_bound);
+    if let Some(s) = args.defer_slack {
+        if !(s >= 1.0) {
+            bail!("--defer-slack {s} must be a number >= 1 (or inf)");
+        }
+        o = o.with_defer_slack(Some(s));
     }
     o = o.with_facing_repair(!args.no_facing_repair);
     Ok(o.with_lock_boundary(args.lock_boundary))

@@ -255,6 +255,54 @@ fn inexact_orders_keep_invariants_and_bound() {
     assert!(differs, "the inexact orders gave the exact order's mesh");
 }
 
+/// Deferring only below a key (`defer_below`): at 0 the first removal already
+/// switches to the exact order (the exact order's mesh), above every key it is plain
+/// deferral (its mesh); in between, and with the deferred bound (`defer_bound`), the
+/// runs keep every invariant, reach the target, keep the bound above the measured
+/// distance, and are deterministic.
+#[test]
+fn partial_and_bounded_deferral() {
+    let bumpy = generate::grid(40, 40, |x, y| 0.1 * (7.0 * x).sin() * (5.0 * y).cos());
+    let torus = generate::torus(48, 24, 2.0, 0.6);
+    for m in [&bumpy, &torus] {
+        let base = vr().with_ratio(0.05);
+        let exact = run(m, &base);
+        let deferred = run(m, &base.clone().with_defer_neighbours(Some(1.0)));
+        assert_ne!(exact.mesh, deferred.mesh, "deferral changed nothing");
+        let at_zero = base
+            .clone()
+            .with_defer_neighbours(Some(1.0))
+            .with_defer_below(Some(0.0));
+        assert_eq!(run(m, &at_zero).mesh, exact.mesh);
+        let above_all = base
+            .clone()
+            .with_defer_neighbours(Some(1.0))
+            .with_defer_below(Some(1e9));
+        assert_eq!(run(m, &above_all).mesh, deferred.mesh);
+        for o in [
+            base.clone()
+                .with_defer_neighbours(Some(1.0))
+                .with_defer_below(Some(2e-3)),
+            base.clone()
+                .with_defer_neighbours(Some(1.0))
+                .with_defer_bound(true),
+            base.clone()
+                .with_defer_neighbours(Some(1.5))
+                .with_defer_below(Some(1e-3))
+                .with_defer_bound(true),
+        ] {
+            let s = run(m, &o);
+            assert_eq!(s.report.stop_reason, StopReason::TargetReached);
+            assert_eq!(s.mesh, run(m, &o).mesh, "not deterministic");
+            let (a, b) = (MeshStats::of(m), MeshStats::of(&s.mesh));
+            assert_eq!(a.topology.genus, b.topology.genus);
+            assert_eq!(a.topology.boundary_loops, b.topology.boundary_loops);
+            let d = hausdorff(m, &s.mesh, &SamplingOptions::default());
+            assert!(d.hausdorff <= s.report.error_absolute * (1.0 + 1e-6) + 1e-12);
+        }
+    }
+}
+
 /// Deterministic: the same input gives the same output.
 #[test]
 fn deterministic() {

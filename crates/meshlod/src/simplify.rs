@@ -197,12 +197,14 @@ pub struct SimplifyOptions {
     /// [`Method::VertexRemoval`]: deferred re-keying: `Some(p)` (`p ≥ 1`) leaves the
     /// neighbours of a removal queued at their previous key divided by `p` until they
     /// come out of the queue (about half the evaluations; inexact order). Default
-    /// `None` (re-evaluated at once).
+    /// `Some(1.0)`, part of the fast order (see [`Self::with_exact_order`]; `None`:
+    /// re-evaluated at once).
     pub defer_neighbours: Option<f64>,
     /// [`Method::VertexRemoval`], with [`Self::defer_neighbours`]: defer only while
     /// the removed point's key is below this fraction of the bounding-box diagonal;
-    /// from the first removal that reaches it on, the exact order. Default `None`
-    /// (defer for the whole run).
+    /// from the first removal that reaches it on, the exact order. Default
+    /// [`FAST_ORDER_EXACT_FROM`](crate::decimate::vertex_removal::FAST_ORDER_EXACT_FROM)
+    /// (`None`: defer for the whole run).
     pub defer_below: Option<f64>,
     /// [`Method::VertexRemoval`], with [`Self::defer_neighbours`]: bound a deferred
     /// neighbour's changed fan at once and queue it at the larger of that bound and
@@ -210,7 +212,9 @@ pub struct SimplifyOptions {
     pub defer_bound: bool,
     /// [`Method::VertexRemoval`], with [`Self::defer_neighbours`]: the order slack
     /// while deferring (may be infinite: every planned candidate is removed when it
-    /// comes out). Default `None` ([`Self::order_slack`] throughout).
+    /// comes out). Default
+    /// [`FAST_ORDER_SLACK`](crate::decimate::vertex_removal::FAST_ORDER_SLACK)
+    /// (`None`: [`Self::order_slack`] throughout).
     pub defer_slack: Option<f64>,
     /// [`Method::Qem`] and [`Method::Melax`]: after simplifying, swap the diagonal
     /// of quads whose triangles face away from the input surface when that turns
@@ -242,10 +246,10 @@ impl Default for SimplifyOptions {
             feature_angle: crate::decimate::vertex_removal::DEFAULT_FEATURE_ANGLE,
             keep_corners: false,
             order_slack: crate::decimate::vertex_removal::DEFAULT_ORDER_SLACK,
-            defer_neighbours: None,
-            defer_below: None,
+            defer_neighbours: Some(1.0),
+            defer_below: Some(crate::decimate::vertex_removal::FAST_ORDER_EXACT_FROM),
             defer_bound: false,
-            defer_slack: None,
+            defer_slack: Some(crate::decimate::vertex_removal::FAST_ORDER_SLACK),
             facing_repair: true,
         }
     }
@@ -377,6 +381,18 @@ impl SimplifyOptions {
     #[must_use]
     pub fn with_defer_neighbours(mut self, factor: Option<f64>) -> Self {
         self.defer_neighbours = factor;
+        self
+    }
+    /// [`Method::VertexRemoval`]: the exact order (cheapest removal first; no
+    /// deferral, no slack). The default is the fast order
+    /// ([`VertexRemovalOptions::with_fast_order`](crate::decimate::vertex_removal::VertexRemovalOptions::with_fast_order)).
+    #[must_use]
+    pub fn with_exact_order(mut self) -> Self {
+        self.order_slack = crate::decimate::vertex_removal::DEFAULT_ORDER_SLACK;
+        self.defer_neighbours = None;
+        self.defer_below = None;
+        self.defer_bound = false;
+        self.defer_slack = None;
         self
     }
     /// Sets [`Self::defer_below`].

@@ -116,6 +116,15 @@
 //! points of a removal keep their previous key (divided by a factor) until it comes
 //! out of the queue, and only then are their changed fans evaluated: about half the
 //! evaluations, but a point whose key fell waits behind cheaper-looking ones.
+//! Deferral can be limited to the fine part of the run
+//! ([`VertexRemovalOptions::defer_below`]): from the first removal whose key reaches
+//! a fraction of the diagonal on, the points still waiting are evaluated and the
+//! order is exact, so the coarse end, which sets the largest errors, is exact. While
+//! deferring, its own slack may apply ([`VertexRemovalOptions::defer_slack`], never
+//! to keys at or above the switch key). [`VertexRemovalOptions::with_fast_order`]
+//! combines them; it is the default of [`crate::simplify::SimplifyOptions`]
+//! (measured against `vtkDecimatePro` in the README), and
+//! [`VertexRemovalOptions::with_exact_order`] the default of this type.
 //!
 //! A popped lower-bound entry is planned without the checks against existing edges
 //! (most such plans are queued again with their exact key and invalidated by a
@@ -225,6 +234,44 @@ impl Default for VertexRemovalOptions {
             defer_slack: None,
             stop: StopRule::default(),
         }
+    }
+}
+
+/// Where the fast order ([`VertexRemovalOptions::with_fast_order`]) becomes exact: a
+/// removed point's key of this fraction of the bounding-box diagonal.
+pub const FAST_ORDER_EXACT_FROM: f64 = 2e-3;
+
+/// The order slack of the fast order while it defers
+/// ([`VertexRemovalOptions::defer_slack`]).
+pub const FAST_ORDER_SLACK: f64 = 1.5;
+
+impl VertexRemovalOptions {
+    /// The fast order (module docs, "Strategy"): deferred re-keying at the previous
+    /// key (`defer_neighbours = Some(1)`), a planned candidate removed at once when
+    /// its key is at most [`FAST_ORDER_SLACK`] times the next queued one
+    /// (`defer_slack`), until a removal's key reaches [`FAST_ORDER_EXACT_FROM`] of
+    /// the diagonal; the exact order from there on. The default of
+    /// [`crate::simplify::SimplifyOptions`].
+    #[must_use]
+    pub fn with_fast_order(mut self) -> Self {
+        self.order_slack = DEFAULT_ORDER_SLACK;
+        self.defer_neighbours = Some(1.0);
+        self.defer_below = Some(FAST_ORDER_EXACT_FROM);
+        self.defer_bound = false;
+        self.defer_slack = Some(FAST_ORDER_SLACK);
+        self
+    }
+
+    /// The exact order: the cheapest removal first, every loop point evaluated again
+    /// after each removal (this type's default).
+    #[must_use]
+    pub fn with_exact_order(mut self) -> Self {
+        self.order_slack = DEFAULT_ORDER_SLACK;
+        self.defer_neighbours = None;
+        self.defer_below = None;
+        self.defer_bound = false;
+        self.defer_slack = None;
+        self
     }
 }
 
@@ -1960,7 +2007,8 @@ impl VertexRemoval {
             (Some(_), Some(f)) => f.max(0.0) * self.diagonal,
             _ => f64::INFINITY,
         };
-        let mut defer = defer;
+        // (No key is below 0: the exact order from the start.)
+        let mut defer = if defer_until > 0.0 { defer } else { None };
         let defer_bound = self.options.defer_bound;
         // The slack while deferring (NaN or below 1 counts as 1).
         let mut slack = match (defer, self.options.defer_slack) {
@@ -2055,10 +2103,17 @@ impl VertexRemoval {
                 // checks): if the exact key is above the next entry, queue it again
                 // with the exact key (best-first stays exact) and keep the plan.
                 let exact = Item { b: 1, ..item }.with_cost(self.key());
+                // (While deferring, the slack stops at the switch key: a removal
+                // that reaches it goes in the exact order.)
+                let s = if self.key() < defer_until {
+                    slack
+                } else {
+                    base_slack
+                };
                 if exact.cost_bits > item.cost_bits
                     && heap
                         .peek_cost_bits()
-                        .is_some_and(|c| slack_bits(c, slack) < exact.cost_bits)
+                        .is_some_and(|c| slack_bits(c, s) < exact.cost_bits)
                 {
                     self.keep_plan(v);
                     self.queued[v as usize] = exact.cost_bits;
@@ -2079,9 +2134,14 @@ impl VertexRemoval {
                             continue;
                         }
                         let exact = Item { b: 1, ..item }.with_cost(self.key());
+                        let s = if self.key() < defer_until {
+                            slack
+                        } else {
+                            base_slack
+                        };
                         if heap
                             .peek_cost_bits()
-                            .is_some_and(|c| slack_bits(c, slack) < exact.cost_bits)
+                            .is_some_and(|c| slack_bits(c, s) < exact.cost_bits)
                         {
                             self.keep_plan(v);
                             heap.push(exact);

@@ -405,7 +405,7 @@ fn options(args: &SimplifyArgs) -> Result<SimplifyOptions> {
     }
     o = o.with_defer_bound(args.defer_bound);
     if let Some(s) = args.defer_slack {
-        if !(s >= 1.0) {
+        if s.is_nan() || s < 1.0 {
             bail!("--defer-slack {s} must be a number >= 1 (or inf)");
         }
         o = o.with_defer_slack(Some(s));

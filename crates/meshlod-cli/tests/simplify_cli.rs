@@ -217,6 +217,40 @@ fn vertex_removal_method() {
     assert!(!bad.status.success());
 }
 
+/// `--order`: the default is `fast` (same bytes), `exact` gives another mesh, both
+/// reach the target; `--defer-neighbours` without `--order` refines the exact order
+/// as before (same bytes as with `--order exact`).
+#[test]
+fn vertex_removal_order() {
+    let dir = tempfile::tempdir().unwrap();
+    let input = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../tests/data/stanford-bunny.obj");
+    let run = |name: &str, extra: &[&str]| {
+        let output = dir.path().join(name);
+        let mut args = vec!["--method", "vertex-removal", "--ratio", "0.05", "--json"];
+        args.extend_from_slice(extra);
+        let j = json(&simplify(&input, &output, &args));
+        assert_eq!(j["stop_reason"], "target_reached", "{extra:?}");
+        std::fs::read(&output).unwrap()
+    };
+    let default = run("default.ply", &[]);
+    assert_eq!(default, run("fast.ply", &["--order", "fast"]));
+    let exact = run("exact.ply", &["--order", "exact"]);
+    assert_ne!(default, exact, "the fast order gave the exact order's mesh");
+    assert_eq!(
+        run("d1.ply", &["--defer-neighbours", "1"]),
+        run(
+            "exact_d1.ply",
+            &["--order", "exact", "--defer-neighbours", "1"]
+        )
+    );
+    let bad = simplify(
+        &input,
+        dir.path().join("bad.ply"),
+        &["--method", "vertex-removal", "--order", "sideways"],
+    );
+    assert!(!bad.status.success());
+}
+
 /// `--method cluster` lands within `--count-tolerance` of `--triangles` (default 5%);
 /// the flag is refused outside clustering and outside (0, 1).
 #[test]

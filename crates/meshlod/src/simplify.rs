@@ -197,8 +197,25 @@ pub struct SimplifyOptions {
     /// [`Method::VertexRemoval`]: deferred re-keying: `Some(p)` (`p ≥ 1`) leaves the
     /// neighbours of a removal queued at their previous key divided by `p` until they
     /// come out of the queue (about half the evaluations; inexact order). Default
-    /// `None` (re-evaluated at once).
+    /// `Some(1.0)`, part of the fast order (see [`Self::with_exact_order`]; `None`:
+    /// re-evaluated at once).
     pub defer_neighbours: Option<f64>,
+    /// [`Method::VertexRemoval`], with [`Self::defer_neighbours`]: defer only while
+    /// the removed point's key is below this fraction of the bounding-box diagonal;
+    /// from the first removal that reaches it on, the exact order. Default
+    /// [`FAST_ORDER_EXACT_FROM`](crate::decimate::vertex_removal::FAST_ORDER_EXACT_FROM)
+    /// (`None`: defer for the whole run).
+    pub defer_below: Option<f64>,
+    /// [`Method::VertexRemoval`], with [`Self::defer_neighbours`]: bound a deferred
+    /// neighbour's changed fan at once and queue it at the larger of that bound and
+    /// its deferred key. Default `false`.
+    pub defer_bound: bool,
+    /// [`Method::VertexRemoval`], with [`Self::defer_neighbours`]: the order slack
+    /// while deferring (may be infinite: every planned candidate is removed when it
+    /// comes out). Default
+    /// [`FAST_ORDER_SLACK`](crate::decimate::vertex_removal::FAST_ORDER_SLACK)
+    /// (`None`: [`Self::order_slack`] throughout).
+    pub defer_slack: Option<f64>,
     /// [`Method::Qem`] and [`Method::Melax`]: after simplifying, swap the diagonal
     /// of quads whose triangles face away from the input surface when that turns
     /// them back without raising the distance to the input (see the `facing`
@@ -229,7 +246,10 @@ impl Default for SimplifyOptions {
             feature_angle: crate::decimate::vertex_removal::DEFAULT_FEATURE_ANGLE,
             keep_corners: false,
             order_slack: crate::decimate::vertex_removal::DEFAULT_ORDER_SLACK,
-            defer_neighbours: None,
+            defer_neighbours: Some(1.0),
+            defer_below: Some(crate::decimate::vertex_removal::FAST_ORDER_EXACT_FROM),
+            defer_bound: false,
+            defer_slack: Some(crate::decimate::vertex_removal::FAST_ORDER_SLACK),
             facing_repair: true,
         }
     }
@@ -361,6 +381,36 @@ impl SimplifyOptions {
     #[must_use]
     pub fn with_defer_neighbours(mut self, factor: Option<f64>) -> Self {
         self.defer_neighbours = factor;
+        self
+    }
+    /// [`Method::VertexRemoval`]: the exact order (cheapest removal first; no
+    /// deferral, no slack). The default is the fast order
+    /// ([`VertexRemovalOptions::with_fast_order`](crate::decimate::vertex_removal::VertexRemovalOptions::with_fast_order)).
+    #[must_use]
+    pub fn with_exact_order(mut self) -> Self {
+        self.order_slack = crate::decimate::vertex_removal::DEFAULT_ORDER_SLACK;
+        self.defer_neighbours = None;
+        self.defer_below = None;
+        self.defer_bound = false;
+        self.defer_slack = None;
+        self
+    }
+    /// Sets [`Self::defer_below`].
+    #[must_use]
+    pub fn with_defer_below(mut self, fraction: Option<f64>) -> Self {
+        self.defer_below = fraction;
+        self
+    }
+    /// Sets [`Self::defer_slack`].
+    #[must_use]
+    pub fn with_defer_slack(mut self, slack: Option<f64>) -> Self {
+        self.defer_slack = slack;
+        self
+    }
+    /// Sets [`Self::defer_bound`].
+    #[must_use]
+    pub fn with_defer_bound(mut self, bound: bool) -> Self {
+        self.defer_bound = bound;
         self
     }
 
@@ -651,6 +701,9 @@ pub fn simplify_observed(
                     keep_corners: options.keep_corners,
                     order_slack: options.order_slack,
                     defer_neighbours: options.defer_neighbours,
+                    defer_below: options.defer_below,
+                    defer_bound: options.defer_bound,
+                    defer_slack: options.defer_slack,
                     lock_boundary: options.lock_boundary,
                     stop: driver_options.stop,
                 },

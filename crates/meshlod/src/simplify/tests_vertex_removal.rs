@@ -231,12 +231,21 @@ fn uv_seam_respected() {
 #[test]
 fn inexact_orders_keep_invariants_and_bound() {
     let bumpy = generate::grid(40, 40, |x, y| 0.1 * (7.0 * x).sin() * (5.0 * y).cos());
-    let exact = run(&bumpy, &vr().with_ratio(0.1));
-    let below_one = run(&bumpy, &vr().with_ratio(0.1).with_order_slack(0.5));
+    let exact = run(&bumpy, &vr().with_exact_order().with_ratio(0.1));
+    let below_one = run(
+        &bumpy,
+        &vr()
+            .with_exact_order()
+            .with_ratio(0.1)
+            .with_order_slack(0.5),
+    );
     assert_eq!(exact.mesh, below_one.mesh);
     let mut differs = false;
     for (slack, defer) in [(1.5, None), (1.0, Some(1.0)), (1.2, Some(1.5))] {
-        let o = vr().with_order_slack(slack).with_defer_neighbours(defer);
+        let o = vr()
+            .with_exact_order()
+            .with_order_slack(slack)
+            .with_defer_neighbours(defer);
         for m in [&bumpy, &generate::torus(48, 24, 2.0, 0.6)] {
             let s = run(m, &o.clone().with_ratio(0.1));
             assert_eq!(s.report.stop_reason, StopReason::TargetReached);
@@ -253,6 +262,75 @@ fn inexact_orders_keep_invariants_and_bound() {
         assert!(d.hausdorff <= s.report.error_absolute * (1.0 + 1e-6) + 1e-12);
     }
     assert!(differs, "the inexact orders gave the exact order's mesh");
+}
+
+/// Deferring only below a key (`defer_below`): at 0 the first removal already
+/// switches to the exact order (the exact order's mesh), above every key it is plain
+/// deferral (its mesh); in between, and with the deferred bound (`defer_bound`), the
+/// runs keep every invariant, reach the target, keep the bound above the measured
+/// distance, and are deterministic.
+#[test]
+fn partial_and_bounded_deferral() {
+    let bumpy = generate::grid(40, 40, |x, y| 0.1 * (7.0 * x).sin() * (5.0 * y).cos());
+    let torus = generate::torus(48, 24, 2.0, 0.6);
+    for m in [&bumpy, &torus] {
+        let base = vr().with_exact_order().with_ratio(0.05);
+        let exact = run(m, &base);
+        let deferred = run(m, &base.clone().with_defer_neighbours(Some(1.0)));
+        assert_ne!(exact.mesh, deferred.mesh, "deferral changed nothing");
+        let at_zero = base
+            .clone()
+            .with_defer_neighbours(Some(1.0))
+            .with_defer_below(Some(0.0));
+        assert_eq!(run(m, &at_zero).mesh, exact.mesh);
+        let above_all = base
+            .clone()
+            .with_defer_neighbours(Some(1.0))
+            .with_defer_below(Some(1e9));
+        assert_eq!(run(m, &above_all).mesh, deferred.mesh);
+        for o in [
+            base.clone()
+                .with_defer_neighbours(Some(1.0))
+                .with_defer_below(Some(2e-3)),
+            base.clone()
+                .with_defer_neighbours(Some(1.0))
+                .with_defer_bound(true),
+            base.clone()
+                .with_defer_neighbours(Some(1.5))
+                .with_defer_below(Some(1e-3))
+                .with_defer_bound(true),
+        ] {
+            let s = run(m, &o);
+            assert_eq!(s.report.stop_reason, StopReason::TargetReached);
+            assert_eq!(s.mesh, run(m, &o).mesh, "not deterministic");
+            let (a, b) = (MeshStats::of(m), MeshStats::of(&s.mesh));
+            assert_eq!(a.topology.genus, b.topology.genus);
+            assert_eq!(a.topology.boundary_loops, b.topology.boundary_loops);
+            let d = hausdorff(m, &s.mesh, &SamplingOptions::default());
+            assert!(d.hausdorff <= s.report.error_absolute * (1.0 + 1e-6) + 1e-12);
+        }
+    }
+}
+
+/// The default order is the fast one (deferred neighbours, slack 1.5, exact from
+/// `FAST_ORDER_EXACT_FROM` on): it differs from the exact order, keeps every
+/// invariant, reaches the target and keeps the bound above the measured distance;
+/// and with a tiny switch key it is the exact order.
+#[test]
+fn default_fast_order_and_exact_order() {
+    let bumpy = generate::grid(40, 40, |x, y| 0.1 * (7.0 * x).sin() * (5.0 * y).cos());
+    let fast = vr().with_ratio(0.05);
+    assert_eq!(fast.defer_neighbours, Some(1.0));
+    let exact = run(&bumpy, &vr().with_exact_order().with_ratio(0.05));
+    let s = run(&bumpy, &fast);
+    assert_eq!(s.report.stop_reason, StopReason::TargetReached);
+    assert_ne!(s.mesh, exact.mesh, "the fast order is the exact order here");
+    let d = hausdorff(&bumpy, &s.mesh, &SamplingOptions::default());
+    assert!(d.hausdorff <= s.report.error_absolute * (1.0 + 1e-6) + 1e-12);
+    assert_eq!(
+        run(&bumpy, &fast.with_defer_below(Some(0.0))).mesh,
+        exact.mesh
+    );
 }
 
 /// Deterministic: the same input gives the same output.

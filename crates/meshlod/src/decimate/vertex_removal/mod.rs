@@ -116,6 +116,15 @@
 //! points of a removal keep their previous key (divided by a factor) until it comes
 //! out of the queue, and only then are their changed fans evaluated: about half the
 //! evaluations, but a point whose key fell waits behind cheaper-looking ones.
+//! Deferral can be limited to the fine part of the run
+//! ([`VertexRemovalOptions::defer_below`]): from the first removal whose key reaches
+//! a fraction of the diagonal on, the points still waiting are evaluated and the
+//! order is exact, so the coarse end, which sets the largest errors, is exact. While
+//! deferring, its own slack may apply ([`VertexRemovalOptions::defer_slack`], never
+//! to keys at or above the switch key). [`VertexRemovalOptions::with_fast_order`]
+//! combines them; it is the default of [`crate::simplify::SimplifyOptions`]
+//! (measured against `vtkDecimatePro` in the README), and
+//! [`VertexRemovalOptions::with_exact_order`] the default of this type.
 //!
 //! A popped lower-bound entry is planned without the checks against existing edges
 //! (most such plans are queued again with their exact key and invalidated by a
@@ -191,6 +200,23 @@ pub struct VertexRemovalOptions {
     /// key). Inexact: a point whose key fell waits. `None` (default): every loop
     /// point is evaluated again at once, as the exact order needs.
     pub defer_neighbours: Option<f64>,
+    /// With [`Self::defer_neighbours`]: defer only while the removed point's key is
+    /// below this fraction of the bounding-box diagonal. At the first removal whose
+    /// key reaches it, every point still waiting behind a deferred key is evaluated
+    /// again, and the rest of the run is in the exact order (the coarse end, which
+    /// sets the largest errors). `None` (default): defer for the whole run.
+    pub defer_below: Option<f64>,
+    /// With [`Self::defer_neighbours`]: bound a deferred loop point's changed fan at
+    /// once (the cheap lower bound, not the plan) and queue it at the larger of that
+    /// bound and its previous key divided by `p`, so a point whose bound rose is not
+    /// taken early. Default `false`: the fan is not looked at until the entry comes
+    /// out.
+    pub defer_bound: bool,
+    /// With [`Self::defer_neighbours`]: the order slack used while deferring (before
+    /// the switch of [`Self::defer_below`]) instead of [`Self::order_slack`]; may be
+    /// infinite (every planned candidate is removed when it comes out, in the order
+    /// of its queued bound). `None` (default): [`Self::order_slack`] throughout.
+    pub defer_slack: Option<f64>,
     /// When to stop.
     pub stop: StopRule,
 }
@@ -203,8 +229,49 @@ impl Default for VertexRemovalOptions {
             lock_boundary: false,
             order_slack: DEFAULT_ORDER_SLACK,
             defer_neighbours: None,
+            defer_below: None,
+            defer_bound: false,
+            defer_slack: None,
             stop: StopRule::default(),
         }
+    }
+}
+
+/// Where the fast order ([`VertexRemovalOptions::with_fast_order`]) becomes exact: a
+/// removed point's key of this fraction of the bounding-box diagonal.
+pub const FAST_ORDER_EXACT_FROM: f64 = 2e-3;
+
+/// The order slack of the fast order while it defers
+/// ([`VertexRemovalOptions::defer_slack`]).
+pub const FAST_ORDER_SLACK: f64 = 1.5;
+
+impl VertexRemovalOptions {
+    /// The fast order (module docs, "Strategy"): deferred re-keying at the previous
+    /// key (`defer_neighbours = Some(1)`), a planned candidate removed at once when
+    /// its key is at most [`FAST_ORDER_SLACK`] times the next queued one
+    /// (`defer_slack`), until a removal's key reaches [`FAST_ORDER_EXACT_FROM`] of
+    /// the diagonal; the exact order from there on. The default of
+    /// [`crate::simplify::SimplifyOptions`].
+    #[must_use]
+    pub fn with_fast_order(mut self) -> Self {
+        self.order_slack = DEFAULT_ORDER_SLACK;
+        self.defer_neighbours = Some(1.0);
+        self.defer_below = Some(FAST_ORDER_EXACT_FROM);
+        self.defer_bound = false;
+        self.defer_slack = Some(FAST_ORDER_SLACK);
+        self
+    }
+
+    /// The exact order: the cheapest removal first, every loop point evaluated again
+    /// after each removal (this type's default).
+    #[must_use]
+    pub fn with_exact_order(mut self) -> Self {
+        self.order_slack = DEFAULT_ORDER_SLACK;
+        self.defer_neighbours = None;
+        self.defer_below = None;
+        self.defer_bound = false;
+        self.defer_slack = None;
+        self
     }
 }
 
@@ -507,6 +574,11 @@ pub struct VertexRemoval {
     away: Vec<bool>,
     facing_from: f64,
     facing_tier: f64,
+    /// The bounding-box diagonal (for [`VertexRemovalOptions::defer_below`]).
+    diagonal: f64,
+    /// Per point: whether its queue entry is a deferred one (`b = 3`, deferred
+    /// re-keying), so the switch to the exact order can evaluate it.
+    waiting: Vec<bool>,
     /// Per point: the key bits it was last queued with (0 when refused; the plain
     /// key for a removal queued behind the facing tier), for deferred re-keying.
     queued: Vec<u32>,
@@ -988,6 +1060,8 @@ impl VertexRemoval {
             // Above every plain key (a distance within the model, or a sum of a few).
             facing_tier: 16.0 * surface.diagonal() + 1.0,
             facing_from: FACING_FROM * surface.diagonal(),
+            diagonal: surface.diagonal(),
+            waiting: Vec::new(),
             queued: vec![0; np],
             pt,
             live: tri.len(),
@@ -1917,7 +1991,7 @@ impl VertexRemoval {
         let stop = self.options.stop;
         let target = stop.target_triangles;
         let max_error = stop.max_error.unwrap_or(f64::INFINITY);
-        let slack = if self.options.order_slack > 1.0 {
+        let base_slack = if self.options.order_slack > 1.0 {
             self.options.order_slack
         } else {
             1.0
@@ -1927,6 +2001,24 @@ impl VertexRemoval {
             .options
             .defer_neighbours
             .map(|p| if p > 1.0 { p } else { 1.0 });
+        // Deferral stops (for good) at the first removal whose key reaches this.
+        let defer_until = match (defer, self.options.defer_below) {
+            (Some(_), Some(f)) if f.is_nan() => 0.0,
+            (Some(_), Some(f)) => f.max(0.0) * self.diagonal,
+            _ => f64::INFINITY,
+        };
+        // (No key is below 0: the exact order from the start.)
+        let mut defer = if defer_until > 0.0 { defer } else { None };
+        let defer_bound = self.options.defer_bound;
+        // The slack while deferring (NaN or below 1 counts as 1).
+        let mut slack = match (defer, self.options.defer_slack) {
+            (Some(_), Some(s)) if s > 1.0 => s,
+            (Some(_), Some(_)) => 1.0,
+            _ => base_slack,
+        };
+        if defer.is_some() {
+            self.waiting = vec![false; self.pt.len()];
+        }
         observer.started(self.live, target);
         let mut outcome = Outcome {
             stop_reason: StopReason::NoLegalCollapse,
@@ -1983,12 +2075,13 @@ impl VertexRemoval {
                 let planned = if item.b == 3 {
                     // A deferred point (its fan changed since its key): bound it now,
                     // and queue the bound unless it is still due.
+                    self.waiting[v as usize] = false;
                     match self.evaluate_bound(v) {
                         Ok(()) => {
                             let bound = Item { b: 0, ..item }.with_cost(self.key());
                             if heap
                                 .peek_cost_bits()
-                                .is_some_and(|c| slack_bits(c, slack) < bound.cost_bits)
+                                .is_some_and(|c| slack_bits(c, base_slack) < bound.cost_bits)
                             {
                                 self.queued[v as usize] = bound.cost_bits;
                                 heap.push(bound);
@@ -2010,10 +2103,17 @@ impl VertexRemoval {
                 // checks): if the exact key is above the next entry, queue it again
                 // with the exact key (best-first stays exact) and keep the plan.
                 let exact = Item { b: 1, ..item }.with_cost(self.key());
+                // (While deferring, the slack stops at the switch key: a removal
+                // that reaches it goes in the exact order.)
+                let s = if self.key() < defer_until {
+                    slack
+                } else {
+                    base_slack
+                };
                 if exact.cost_bits > item.cost_bits
                     && heap
                         .peek_cost_bits()
-                        .is_some_and(|c| slack_bits(c, slack) < exact.cost_bits)
+                        .is_some_and(|c| slack_bits(c, s) < exact.cost_bits)
                 {
                     self.keep_plan(v);
                     self.queued[v as usize] = exact.cost_bits;
@@ -2034,9 +2134,14 @@ impl VertexRemoval {
                             continue;
                         }
                         let exact = Item { b: 1, ..item }.with_cost(self.key());
+                        let s = if self.key() < defer_until {
+                            slack
+                        } else {
+                            base_slack
+                        };
                         if heap
                             .peek_cost_bits()
-                            .is_some_and(|c| slack_bits(c, slack) < exact.cost_bits)
+                            .is_some_and(|c| slack_bits(c, s) < exact.cost_bits)
                         {
                             self.keep_plan(v);
                             heap.push(exact);
@@ -2071,6 +2176,7 @@ impl VertexRemoval {
                 continue;
             }
             outcome.max_error = outcome.max_error.max(self.plan.cost);
+            let removed_key = self.key();
             loop_pts.clear();
             loop_pts.extend_from_slice(&self.plan.q);
             self.apply(v);
@@ -2081,13 +2187,49 @@ impl VertexRemoval {
             // Loop points whose bound is below every queued key are planned at once
             // (they would be next out of the queue), sparing a second classification.
             let next = heap.peek_cost_bits().unwrap_or(u32::MAX);
+            if defer.is_some() && removed_key >= defer_until {
+                // The coarse end: back to the exact order. Every point still behind
+                // a deferred key is evaluated now (its old entry made stale).
+                defer = None;
+                slack = base_slack;
+                for q in 0..self.pt.len() as u32 {
+                    let qi = q as usize;
+                    if self.waiting[qi] && self.pt[qi].len > 0 {
+                        self.waiting[qi] = false;
+                        self.pt[qi].version = self.pt[qi].version.wrapping_add(1);
+                        self.push(&mut heap, q, next);
+                    }
+                }
+            }
             if let Some(defer) = defer {
                 for &q in &loop_pts {
                     let qi = q as usize;
                     let prov = slack_bits(self.queued[qi], 1.0 / defer);
                     if prov < next || self.pt[qi].len == 0 {
+                        self.waiting[qi] = false;
                         self.push(&mut heap, q, next);
+                    } else if defer_bound {
+                        // Bound the changed fan now; queue the larger of the bound
+                        // and the deferred key (planned when it comes out).
+                        self.waiting[qi] = false;
+                        if let Err(r) = self.evaluate_bound(q) {
+                            self.queued[qi] = 0;
+                            self.count(r);
+                            continue;
+                        }
+                        let bound = Item::default().with_cost(self.key()).cost_bits;
+                        let cost_bits = bound.max(prov);
+                        if bound > prov {
+                            self.queued[qi] = bound;
+                        }
+                        heap.push(Item {
+                            a: q,
+                            b: 0,
+                            stamp: self.pt[qi].version,
+                            cost_bits,
+                        });
                     } else {
+                        self.waiting[qi] = true;
                         heap.push(Item {
                             a: q,
                             b: 3,

@@ -183,7 +183,7 @@ pub enum RepresentativeArg {
 /// `--order` (vertex removal).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
 pub enum OrderArg {
-    /// Deferred neighbours and slack 1.5 while costs are small, exact after.
+    /// Deferred neighbours and slack 1.2 while costs are small, exact after.
     Fast,
     /// The cheapest removal first, always.
     Exact,

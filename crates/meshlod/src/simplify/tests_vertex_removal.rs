@@ -312,7 +312,7 @@ fn partial_and_bounded_deferral() {
     }
 }
 
-/// The default order is the fast one (deferred neighbours, slack 1.5, exact from
+/// The default order is the fast one (deferred neighbours, slack 1.2, exact from
 /// `FAST_ORDER_EXACT_FROM` on): it differs from the exact order, keeps every
 /// invariant, reaches the target and keeps the bound above the measured distance;
 /// and with a tiny switch key it is the exact order.

@@ -243,7 +243,7 @@ pub const FAST_ORDER_EXACT_FROM: f64 = 2e-3;
 
 /// The order slack of the fast order while it defers
 /// ([`VertexRemovalOptions::defer_slack`]).
-pub const FAST_ORDER_SLACK: f64 = 1.5;
+pub const FAST_ORDER_SLACK: f64 = 1.2;
 
 impl VertexRemovalOptions {
     /// The fast order (module docs, "Strategy"): deferred re-keying at the previous

@@ -106,11 +106,6 @@ fn vertex_removal_keeps_invariants_on_shared_meshes() {
                 continue;
             }
         };
-        // The largest meshes (turbine blade, 199k) are left to the benchmark to keep
-        // CI time modest.
-        if mesh.triangles.len() > 150_000 {
-            continue;
-        }
         let (repaired, _) =
             simplify(&mesh, &SimplifyOptions::default().with_ratio(1.0)).expect("valid mesh");
         let bvh = Bvh::build(&mesh.positions, &mesh.triangles);

@@ -508,7 +508,7 @@ fn sorted3<T: PartialOrd>(mut t: [T; 3]) -> [T; 3] {
 /// Open-addressing set of unordered triples of `u32` (triangles up to rotation and
 /// winding): [`Self::insert`] says whether the triple is new.
 #[derive(Debug, Clone)]
-pub struct TripleSet(OpenSet<[u32; 3]>);
+pub struct TripleSet(OpenSet<[u32; 3]>, Vec<(u32, [u32; 3])>, Vec<[u32; 3]>);
 
 impl TripleSet {
     /// A set sized for about `expected` triples.
@@ -516,7 +516,7 @@ impl TripleSet {
     pub fn with_capacity(expected: usize) -> Self {
         let mut s = OpenSet::default();
         s.reset(expected);
-        Self(s)
+        Self(s, Vec::new(), Vec::new())
     }
 
     /// Empties the set, sized for about `expected` triples (the memory is reused).
@@ -534,8 +534,72 @@ impl TripleSet {
     /// Bytes held.
     #[must_use]
     pub fn bytes(&self) -> usize {
-        self.0.slots.capacity() * 12
+        (self.0.slots.capacity() + self.2.capacity()) * 12 + self.1.capacity() * 16
     }
+
+    /// Keeps the items of `items` whose triple `triple(x)` (any order; distinct
+    /// entries, not `u32::MAX`) is the first in order over its three entries:
+    /// what inserting them one by one into an empty set keeps, in the same
+    /// order. Large inputs are first partitioned by a hash of the triple (a
+    /// stable counting sort, so a triple's copies stay in order) into buckets of
+    /// a few thousand, each deduplicated in a small table that stays in cache
+    /// (one set over all of them misses the cache on nearly every insert). The
+    /// set is left empty or holding the last bucket.
+    pub fn retain_first<T: Copy>(&mut self, items: &mut Vec<T>, triple: impl Fn(T) -> [u32; 3]) {
+        /// Items per bucket aimed at: a table of 2¹³ slots of 12 bytes.
+        const PER_BUCKET: usize = 1 << 12;
+        let n = items.len();
+        let buckets = (n / PER_BUCKET).next_power_of_two();
+        if buckets < 4 {
+            self.reset(n);
+            items.retain(|&x| self.insert(triple(x)));
+            return;
+        }
+        let shift = 64 - buckets.trailing_zeros();
+        let bucket = |t: [u32; 3]| (bucket_hash(t) >> shift) as usize;
+        // A stable counting sort of (position, sorted triple) by bucket.
+        let mut start = vec![0u32; buckets + 1];
+        let sorted = &mut self.2;
+        sorted.clear();
+        sorted.extend(items.iter().map(|&x| sorted3(triple(x))));
+        for &t in sorted.iter() {
+            start[bucket(t) + 1] += 1;
+        }
+        for b in 0..buckets {
+            start[b + 1] += start[b];
+        }
+        let parts = &mut self.1;
+        parts.clear();
+        parts.resize(n, (0, [0; 3]));
+        let mut next = start.clone();
+        for (i, &t) in sorted.iter().enumerate() {
+            let b = bucket(t);
+            parts[next[b] as usize] = (i as u32, t);
+            next[b] += 1;
+        }
+        let mut keep = vec![false; n];
+        for b in 0..buckets {
+            let part = &parts[start[b] as usize..start[b + 1] as usize];
+            self.0.reset(part.len());
+            for &(i, t) in part {
+                keep[i as usize] = self.0.insert(t);
+            }
+        }
+        let mut i = 0;
+        items.retain(|_| {
+            i += 1;
+            keep[i - 1]
+        });
+    }
+}
+
+/// The hash that partitions triples in [`TripleSet::retain_first`] (its high
+/// bits); unlike [`SlotKey::slot_hash`] of the sorted triple, so that the triples
+/// of one bucket spread over its table.
+#[inline]
+fn bucket_hash(t: [u32; 3]) -> u64 {
+    mix(u64::from(t[0]) | u64::from(t[1]) << 32)
+        ^ u64::from(t[2]).wrapping_mul(0x9e37_79b9_7f4a_7c15)
 }
 
 /// A reusable open-addressing set of unordered triples of cell keys, for counting

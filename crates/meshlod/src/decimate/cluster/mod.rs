@@ -1174,7 +1174,8 @@ fn count_distinct(
 /// [`count_distinct`] (sequential) on 4-byte cells (`cells[v]` the
 /// [`Grid::linear_u32`] index of vertex `v`), exactly: the triangles with three
 /// distinct cells are found first (their indices written branch-free), then only
-/// they are gathered again and put in an exact set of cell triples. `record` keeps
+/// they are gathered again and deduplicated exactly by their cell triples
+/// ([`TripleSet::retain_first`], partitioned to stay in cache). `record` keeps
 /// the first triangle over each triple, in order. Returns the count (the triples)
 /// and the number of triangles with three distinct cells.
 #[inline(always)]
@@ -1182,10 +1183,8 @@ fn count_small(
     tris: &[[u32; 3]],
     cells: &[u32],
     set: &mut TripleSet,
-    goal: usize,
     record: &mut Vec<u32>,
 ) -> (usize, usize) {
-    set.reset(goal + goal / 4);
     record.clear();
     let cell = |v: u32| cells.get(v as usize).copied().unwrap_or(0);
     // Chunks of 256 triangles: the buffer cannot fill within one, so the loop has
@@ -1202,17 +1201,8 @@ fn count_small(
         record.extend_from_slice(&idx[..m]);
     }
     let three = record.len();
-    // `retain`, as a plain loop (inlined into the AVX2 build).
-    let mut kept = 0;
-    for i in 0..three {
-        let t = record[i];
-        if set.insert(tris[t as usize].map(cell)) {
-            record[kept] = t;
-            kept += 1;
-        }
-    }
-    record.truncate(kept);
-    (kept, three)
+    set.retain_first(record, |t| tris[t as usize].map(cell));
+    (record.len(), three)
 }
 
 /// Expected occupied cells for about `triangles` output triangles (about two
@@ -1380,7 +1370,7 @@ impl Pipeline for InMemory<'_> {
         let c = if self.first_only {
             let (exact, distinct) = (&mut self.exact, &mut self.distinct);
             let (c, three) =
-                crate::isa::dispatch!(count_small(tris, small, &mut *exact, goal, &mut *distinct));
+                crate::isa::dispatch!(count_small(tris, small, &mut *exact, &mut *distinct));
             self.three = three;
             c
         } else if small_grid(grid) {

@@ -1133,7 +1133,7 @@ fn count_distinct(
         let mut m = 0;
         let mut flush = |buf: &[[u64; 3]], idx: &[u32]| {
             for k in buf {
-                set.insert(*k);
+                set.push(*k);
             }
             if let Some(r) = record.as_deref_mut() {
                 r.extend_from_slice(idx);
@@ -1152,23 +1152,24 @@ fn count_distinct(
         flush(&buf[..m], &idx[..m]);
     } else {
         let per = n.div_ceil(4 * threads).max(PAR_COUNT / 4);
-        let chunks: Vec<Vec<(u32, [u64; 3])>> = (0..n.div_ceil(per))
+        let chunks: Vec<Vec<(u32, u64)>> = (0..n.div_ceil(per))
             .into_par_iter()
             .map(|c| {
                 (c * per..((c + 1) * per).min(n))
                     .map(|t| (t as u32, keys_of(t)))
                     .filter(|(_, k)| distinct(k))
+                    .map(|(t, k)| (t, KeyTriples::hash(k)))
                     .collect()
             })
             .collect();
-        for (t, k) in chunks.into_iter().flatten() {
-            set.insert(k);
+        for (t, h) in chunks.into_iter().flatten() {
+            set.push_hash(h);
             if let Some(r) = record.as_deref_mut() {
                 r.push(t);
             }
         }
     }
-    set.len()
+    set.count()
 }
 
 /// [`count_distinct`] (sequential) on 4-byte cells (`cells[v]` the
@@ -1417,6 +1418,15 @@ impl Pipeline for InMemory<'_> {
         };
         let cells_of = |t: usize| mesh.triangles[t].map(|v| vcell[v as usize]);
         let same = self.distinct_cell.to_bits() == grid.cell.to_bits();
+        if same && !self.first_only {
+            // The last probe was on this grid: only its triangles with three
+            // distinct cells (distinct keys are distinct ids) can be kept; the first
+            // over each cell triple, found as the sequential probe does.
+            self.three = self.distinct.len();
+            self.exact
+                .retain_first(&mut self.distinct, |t| cells_of(t as usize));
+            self.first_only = true;
+        }
         let stage1 = if same && self.first_only {
             // The last probe was on this grid and kept the first triangle over each
             // cell triple (distinct linear indices are distinct ids): the first
@@ -1434,17 +1444,8 @@ impl Pipeline for InMemory<'_> {
             }
         } else {
             let (mut stage1, mut set) = Stage1::new(expect);
-            if same {
-                // The last probe was on this grid: only its triangles with three
-                // distinct cells (distinct keys are distinct ids) can be kept.
-                for &t in &self.distinct {
-                    stage1.push(&mut set, cells_of(t as usize), mesh.group(t as usize));
-                }
-                stage1.collapsed = mesh.triangles.len() - self.distinct.len();
-            } else {
-                for t in 0..mesh.triangles.len() {
-                    stage1.push(&mut set, cells_of(t), mesh.group(t));
-                }
+            for t in 0..mesh.triangles.len() {
+                stage1.push(&mut set, cells_of(t), mesh.group(t));
             }
             stage1
         };

@@ -796,7 +796,7 @@ mod tests {
     fn partitioned_dedup_matches_one_set() {
         // 60k triples over 20k distinct ones, copies scattered, in various orders.
         let t = |i: u32| {
-            let j = (i.wrapping_mul(2_654_435_761) >> 8) % 20_000;
+            let j = i * 7919 % 20_000;
             let t = [j, j + 1 + j % 7, j + 20_001];
             [
                 t[(i % 3) as usize],

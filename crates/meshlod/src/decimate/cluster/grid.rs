@@ -540,19 +540,29 @@ impl TripleSet {
     /// Keeps the items of `items` whose triple `triple(x)` (any order; distinct
     /// entries, not `u32::MAX`) is the first in order over its three entries:
     /// what inserting them one by one into an empty set keeps, in the same
-    /// order. Large inputs are first partitioned by a hash of the triple (a
-    /// stable counting sort, so a triple's copies stay in order) into buckets of
-    /// a few thousand, each deduplicated in a small table that stays in cache
+    /// order. Large inputs (over [`ONE_SET_MAX`] triples) are first partitioned
+    /// by a hash of the triple (a stable counting sort, so a triple's copies stay
+    /// in order) into buckets of a few thousand, each deduplicated in a small table that stays in cache
     /// (one set over all of them misses the cache on nearly every insert). The
     /// set is left empty or holding the last bucket.
+    #[inline]
     pub fn retain_first<T: Copy>(&mut self, items: &mut Vec<T>, triple: impl Fn(T) -> [u32; 3]) {
         /// Items per bucket aimed at: a table of 2¹³ slots of 12 bytes.
         const PER_BUCKET: usize = 1 << 12;
         let n = items.len();
         let buckets = (n / PER_BUCKET).next_power_of_two();
-        if buckets < 4 {
+        if n <= ONE_SET_MAX {
+            // One set; `retain` as a plain loop (it inlines into the caller).
             self.reset(n);
-            items.retain(|&x| self.insert(triple(x)));
+            let mut kept = 0;
+            for i in 0..n {
+                let x = items[i];
+                if self.insert(triple(x)) {
+                    items[kept] = x;
+                    kept += 1;
+                }
+            }
+            items.truncate(kept);
             return;
         }
         let shift = 64 - buckets.trailing_zeros();
@@ -592,6 +602,10 @@ impl TripleSet {
         });
     }
 }
+
+/// Up to this many triples are deduplicated in one set (at most 2¹⁷ slots, 1.5 MB
+/// at 12 bytes a slot: it mostly stays in a core's cache), more by partition.
+const ONE_SET_MAX: usize = 1 << 16;
 
 /// The hash that partitions triples in [`TripleSet::retain_first`] (its high
 /// bits); unlike [`SlotKey::slot_hash`] of the sorted triple, so that the triples
@@ -653,7 +667,7 @@ impl KeyTriples {
         const PER_BUCKET: usize = 1 << 12;
         let n = self.hashes.len();
         let buckets = (n / PER_BUCKET).next_power_of_two();
-        if buckets < 4 {
+        if n <= ONE_SET_MAX {
             self.set.reset(n);
             self.hashes.iter().for_each(|&h| _ = self.set.insert(h));
             return self.set.len;
@@ -794,33 +808,33 @@ mod tests {
     /// triangle over each triple in order, and the count of distinct triples.
     #[test]
     fn partitioned_dedup_matches_one_set() {
-        // 60k triples over 20k distinct ones, copies scattered, in various orders.
+        // 210k triples over 70k distinct ones, copies scattered, in various orders.
         let t = |i: u32| {
-            let j = i * 7919 % 20_000;
-            let t = [j, j + 1 + j % 7, j + 20_001];
+            let j = i * 7919 % 70_000;
+            let t = [j, j + 1 + j % 7, j + 70_001];
             [
                 t[(i % 3) as usize],
                 t[((i + 1) % 3) as usize],
                 t[((i + 2) % 3) as usize],
             ]
         };
-        let mut items: Vec<u32> = (0..60_000).collect();
-        let mut one = TripleSet::with_capacity(60_000);
+        let mut items: Vec<u32> = (0..210_000).collect();
+        let mut one = TripleSet::with_capacity(210_000);
         let expect: Vec<u32> = items
             .iter()
             .copied()
             .filter(|&i| one.insert(t(i)))
             .collect();
-        assert_eq!(expect.len(), 20_000);
+        assert_eq!(expect.len(), 70_000);
         let mut s = TripleSet::with_capacity(0);
         s.retain_first(&mut items, t);
         assert_eq!(items, expect);
         let mut k = KeyTriples::default();
         k.reset(0);
-        for i in 0..60_000 {
+        for i in 0..210_000 {
             k.push(t(i).map(u64::from));
         }
-        assert_eq!(k.count(), 20_000);
+        assert_eq!(k.count(), 70_000);
     }
 
     /// The flat and the hashed layouts give the same ids for the same keys.

@@ -508,7 +508,7 @@ fn sorted3<T: PartialOrd>(mut t: [T; 3]) -> [T; 3] {
 /// Open-addressing set of unordered triples of `u32` (triangles up to rotation and
 /// winding): [`Self::insert`] says whether the triple is new.
 #[derive(Debug, Clone)]
-pub struct TripleSet(OpenSet<[u32; 3]>);
+pub struct TripleSet(OpenSet<[u32; 3]>, Vec<(u32, [u32; 3])>, Vec<[u32; 3]>);
 
 impl TripleSet {
     /// A set sized for about `expected` triples.
@@ -516,7 +516,7 @@ impl TripleSet {
     pub fn with_capacity(expected: usize) -> Self {
         let mut s = OpenSet::default();
         s.reset(expected);
-        Self(s)
+        Self(s, Vec::new(), Vec::new())
     }
 
     /// Empties the set, sized for about `expected` triples (the memory is reused).
@@ -534,34 +534,169 @@ impl TripleSet {
     /// Bytes held.
     #[must_use]
     pub fn bytes(&self) -> usize {
-        self.0.slots.capacity() * 12
+        (self.0.slots.capacity() + self.2.capacity()) * 12 + self.1.capacity() * 16
+    }
+
+    /// Keeps the items of `items` whose triple `triple(x)` (any order; distinct
+    /// entries, not `u32::MAX`) is the first in order over its three entries:
+    /// what inserting them one by one into an empty set keeps, in the same
+    /// order. Large inputs (over [`ONE_SET_MAX`] triples) are first partitioned
+    /// by a hash of the triple (a stable counting sort, so a triple's copies stay
+    /// in order) into buckets of a few thousand, each deduplicated in a small table that stays in cache
+    /// (one set over all of them misses the cache on nearly every insert). The
+    /// set is left empty or holding the last bucket.
+    #[inline]
+    pub fn retain_first<T: Copy>(&mut self, items: &mut Vec<T>, triple: impl Fn(T) -> [u32; 3]) {
+        /// Items per bucket aimed at: a table of 2¹³ slots of 12 bytes.
+        const PER_BUCKET: usize = 1 << 12;
+        let n = items.len();
+        let buckets = (n / PER_BUCKET).next_power_of_two();
+        if n <= ONE_SET_MAX {
+            // One set; `retain` as a plain loop (it inlines into the caller).
+            self.reset(n);
+            let mut kept = 0;
+            for i in 0..n {
+                let x = items[i];
+                if self.insert(triple(x)) {
+                    items[kept] = x;
+                    kept += 1;
+                }
+            }
+            items.truncate(kept);
+            return;
+        }
+        let shift = 64 - buckets.trailing_zeros();
+        let bucket = |t: [u32; 3]| (bucket_hash(t) >> shift) as usize;
+        // A stable counting sort of (position, sorted triple) by bucket.
+        let mut start = vec![0u32; buckets + 1];
+        let sorted = &mut self.2;
+        sorted.clear();
+        sorted.extend(items.iter().map(|&x| sorted3(triple(x))));
+        for &t in sorted.iter() {
+            start[bucket(t) + 1] += 1;
+        }
+        for b in 0..buckets {
+            start[b + 1] += start[b];
+        }
+        let parts = &mut self.1;
+        parts.clear();
+        parts.resize(n, (0, [0; 3]));
+        let mut next = start.clone();
+        for (i, &t) in sorted.iter().enumerate() {
+            let b = bucket(t);
+            parts[next[b] as usize] = (i as u32, t);
+            next[b] += 1;
+        }
+        let mut keep = vec![false; n];
+        for b in 0..buckets {
+            let part = &parts[start[b] as usize..start[b + 1] as usize];
+            self.0.reset(part.len());
+            for &(i, t) in part {
+                keep[i as usize] = self.0.insert(t);
+            }
+        }
+        let mut i = 0;
+        items.retain(|_| {
+            i += 1;
+            keep[i - 1]
+        });
     }
 }
 
-/// A reusable open-addressing set of unordered triples of cell keys, for counting
-/// the distinct triangles of a probe without numbering the cells. It keeps a 64-bit
-/// hash of each triple, not the triple (8 bytes a slot): two distinct triples count
-/// once only if their hashes collide, which for `n` triples has probability about
-/// `n²/2⁶⁵` (below 10⁻⁸ for a billion-triangle output). Only the ε search uses it.
+/// Up to this many triples are deduplicated in one set (at most 2¹⁷ slots, 1.5 MB
+/// at 12 bytes a slot: it mostly stays in a core's cache), more by partition.
+const ONE_SET_MAX: usize = 1 << 16;
+
+/// The hash that partitions triples in [`TripleSet::retain_first`] (its high
+/// bits); unlike [`SlotKey::slot_hash`] of the sorted triple, so that the triples
+/// of one bucket spread over its table.
+#[inline]
+fn bucket_hash(t: [u32; 3]) -> u64 {
+    mix(u64::from(t[0]) | u64::from(t[1]) << 32)
+        ^ u64::from(t[2]).wrapping_mul(0x9e37_79b9_7f4a_7c15)
+}
+
+/// A reusable multiset of unordered triples of cell keys, for counting the distinct
+/// triangles of a probe without numbering the cells. It keeps a 64-bit hash of each
+/// triple, not the triple (8 bytes each): two distinct triples count once only if
+/// their hashes collide, which for `n` triples has probability about `n²/2⁶⁵`
+/// (below 10⁻⁸ for a billion-triangle output). Only the ε search uses it.
+///
+/// The hashes are gathered first and counted at the end ([`Self::count`]):
+/// partitioned by their high bits into buckets of a few thousand, each counted in
+/// a small linear-probing set that stays in cache, where one set over all of them
+/// would miss the cache on nearly every insert.
 #[derive(Debug, Clone, Default)]
-pub(crate) struct KeyTriples(OpenSet<u64>);
+pub(crate) struct KeyTriples {
+    hashes: Vec<u64>,
+    parts: Vec<u64>,
+    set: OpenSet<u64>,
+}
 
 impl KeyTriples {
-    /// Empties the set, sized for about `expected` triples (the memory is reused).
+    /// Empties the multiset, sized for about `expected` triples (the memory is
+    /// reused).
     pub(crate) fn reset(&mut self, expected: usize) {
-        self.0.reset(expected);
+        self.hashes.clear();
+        self.hashes.reserve(expected);
     }
 
-    /// Number of triples held.
-    pub(crate) fn len(&self) -> usize {
-        self.0.len
-    }
-
-    /// Inserts the triple of keys `t` in any order; `true` when it is new.
+    /// Adds the triple of keys `t`, in any order.
     #[inline]
-    pub(crate) fn insert(&mut self, t: [u64; 3]) -> bool {
+    pub(crate) fn push(&mut self, t: [u64; 3]) {
+        self.hashes.push(Self::hash(t));
+    }
+
+    /// The hash kept for the triple of keys `t` (any order; never 0), for
+    /// [`Self::push_hash`].
+    #[inline]
+    pub(crate) fn hash(t: [u64; 3]) -> u64 {
         let s = sorted3(t);
-        self.0.insert(mix(s[0] ^ mix(s[1] ^ mix(s[2]))).max(1))
+        mix(s[0] ^ mix(s[1] ^ mix(s[2]))).max(1)
+    }
+
+    /// Adds a triple by its [`Self::hash`].
+    #[inline]
+    pub(crate) fn push_hash(&mut self, h: u64) {
+        self.hashes.push(h);
+    }
+
+    /// Number of distinct triples added.
+    pub(crate) fn count(&mut self) -> usize {
+        /// Hashes per bucket aimed at: a table of 2¹³ slots of 8 bytes.
+        const PER_BUCKET: usize = 1 << 12;
+        let n = self.hashes.len();
+        let buckets = (n / PER_BUCKET).next_power_of_two();
+        if n <= ONE_SET_MAX {
+            self.set.reset(n);
+            self.hashes.iter().for_each(|&h| _ = self.set.insert(h));
+            return self.set.len;
+        }
+        // The buckets are the high bits; the slots (`h >> 7`) the low ones.
+        let shift = 64 - buckets.trailing_zeros();
+        let mut start = vec![0usize; buckets + 1];
+        for &h in &self.hashes {
+            start[(h >> shift) as usize + 1] += 1;
+        }
+        for b in 0..buckets {
+            start[b + 1] += start[b];
+        }
+        self.parts.clear();
+        self.parts.resize(n, 0);
+        let mut next = start.clone();
+        for &h in &self.hashes {
+            let b = (h >> shift) as usize;
+            self.parts[next[b]] = h;
+            next[b] += 1;
+        }
+        let mut distinct = 0;
+        for b in 0..buckets {
+            let part = &self.parts[start[b]..start[b + 1]];
+            self.set.reset(part.len());
+            part.iter().for_each(|&h| _ = self.set.insert(h));
+            distinct += self.set.len;
+        }
+        distinct
     }
 }
 
@@ -657,14 +792,49 @@ mod tests {
         let mut k = KeyTriples::default();
         k.reset(1);
         for i in 0..500u64 {
-            assert!(k.insert([i << 40, i + 1, i + 7]));
+            k.push([i << 40, i + 1, i + 7]);
         }
-        assert!(!k.insert([251, 250 << 40, 257]));
-        assert!(k.insert([251, 250, 257]));
-        assert_eq!(k.len(), 501);
+        k.push([251, 250 << 40, 257]);
+        k.push([251, 250, 257]);
+        assert_eq!(k.count(), 501);
         k.reset(4);
-        assert_eq!(k.len(), 0);
-        assert!(k.insert([3, 2, 1]) && !k.insert([1, 3, 2]));
+        assert_eq!(k.count(), 0);
+        k.push([3, 2, 1]);
+        k.push([1, 3, 2]);
+        assert_eq!(k.count(), 1);
+    }
+
+    /// The partitioned passes (large inputs) keep what one set keeps: the first
+    /// triangle over each triple in order, and the count of distinct triples.
+    #[test]
+    fn partitioned_dedup_matches_one_set() {
+        // 210k triples over 70k distinct ones, copies scattered, in various orders.
+        let t = |i: u32| {
+            let j = i * 7919 % 70_000;
+            let t = [j, j + 1 + j % 7, j + 70_001];
+            [
+                t[(i % 3) as usize],
+                t[((i + 1) % 3) as usize],
+                t[((i + 2) % 3) as usize],
+            ]
+        };
+        let mut items: Vec<u32> = (0..210_000).collect();
+        let mut one = TripleSet::with_capacity(210_000);
+        let expect: Vec<u32> = items
+            .iter()
+            .copied()
+            .filter(|&i| one.insert(t(i)))
+            .collect();
+        assert_eq!(expect.len(), 70_000);
+        let mut s = TripleSet::with_capacity(0);
+        s.retain_first(&mut items, t);
+        assert_eq!(items, expect);
+        let mut k = KeyTriples::default();
+        k.reset(0);
+        for i in 0..210_000 {
+            k.push(t(i).map(u64::from));
+        }
+        assert_eq!(k.count(), 70_000);
     }
 
     /// The flat and the hashed layouts give the same ids for the same keys.

@@ -77,7 +77,9 @@
 //! first stage when the build is on the probe's grid; otherwise (the parallel path,
 //! streaming) it holds 64-bit hashes of them (exact up to collisions, about
 //! `n²/2⁶⁵`: about 2·10⁻⁷ for 3M kept triangles; a collision would lower a probe's
-//! count by one on that path only). ε starts from the projected area `P` (the areas of the
+//! count by one on that path only). Above 2¹⁶ triples, either is deduplicated by
+//! partition (a stable counting sort by hash into cache-sized buckets, the same
+//! result). ε starts from the projected area `P` (the areas of the
 //! triangles' projections on the three coordinate planes, estimated on at most 8192
 //! triangles): a surface meets about `P/ε²` cells whatever its orientation, and the
 //! probe count is about `1.74·P/ε²` on the shared test meshes (1.55–1.87), times
@@ -1133,7 +1135,7 @@ fn count_distinct(
         let mut m = 0;
         let mut flush = |buf: &[[u64; 3]], idx: &[u32]| {
             for k in buf {
-                set.insert(*k);
+                set.push(*k);
             }
             if let Some(r) = record.as_deref_mut() {
                 r.extend_from_slice(idx);
@@ -1152,29 +1154,31 @@ fn count_distinct(
         flush(&buf[..m], &idx[..m]);
     } else {
         let per = n.div_ceil(4 * threads).max(PAR_COUNT / 4);
-        let chunks: Vec<Vec<(u32, [u64; 3])>> = (0..n.div_ceil(per))
+        let chunks: Vec<Vec<(u32, u64)>> = (0..n.div_ceil(per))
             .into_par_iter()
             .map(|c| {
                 (c * per..((c + 1) * per).min(n))
                     .map(|t| (t as u32, keys_of(t)))
                     .filter(|(_, k)| distinct(k))
+                    .map(|(t, k)| (t, KeyTriples::hash(k)))
                     .collect()
             })
             .collect();
-        for (t, k) in chunks.into_iter().flatten() {
-            set.insert(k);
+        for (t, h) in chunks.into_iter().flatten() {
+            set.push_hash(h);
             if let Some(r) = record.as_deref_mut() {
                 r.push(t);
             }
         }
     }
-    set.len()
+    set.count()
 }
 
 /// [`count_distinct`] (sequential) on 4-byte cells (`cells[v]` the
 /// [`Grid::linear_u32`] index of vertex `v`), exactly: the triangles with three
 /// distinct cells are found first (their indices written branch-free), then only
-/// they are gathered again and put in an exact set of cell triples. `record` keeps
+/// they are gathered again and deduplicated exactly by their cell triples
+/// ([`TripleSet::retain_first`], partitioned to stay in cache). `record` keeps
 /// the first triangle over each triple, in order. Returns the count (the triples)
 /// and the number of triangles with three distinct cells.
 #[inline(always)]
@@ -1182,10 +1186,8 @@ fn count_small(
     tris: &[[u32; 3]],
     cells: &[u32],
     set: &mut TripleSet,
-    goal: usize,
     record: &mut Vec<u32>,
 ) -> (usize, usize) {
-    set.reset(goal + goal / 4);
     record.clear();
     let cell = |v: u32| cells.get(v as usize).copied().unwrap_or(0);
     // Chunks of 256 triangles: the buffer cannot fill within one, so the loop has
@@ -1202,17 +1204,8 @@ fn count_small(
         record.extend_from_slice(&idx[..m]);
     }
     let three = record.len();
-    // `retain`, as a plain loop (inlined into the AVX2 build).
-    let mut kept = 0;
-    for i in 0..three {
-        let t = record[i];
-        if set.insert(tris[t as usize].map(cell)) {
-            record[kept] = t;
-            kept += 1;
-        }
-    }
-    record.truncate(kept);
-    (kept, three)
+    set.retain_first(record, |t| tris[t as usize].map(cell));
+    (record.len(), three)
 }
 
 /// Expected occupied cells for about `triangles` output triangles (about two
@@ -1380,7 +1373,7 @@ impl Pipeline for InMemory<'_> {
         let c = if self.first_only {
             let (exact, distinct) = (&mut self.exact, &mut self.distinct);
             let (c, three) =
-                crate::isa::dispatch!(count_small(tris, small, &mut *exact, goal, &mut *distinct));
+                crate::isa::dispatch!(count_small(tris, small, &mut *exact, &mut *distinct));
             self.three = three;
             c
         } else if small_grid(grid) {
@@ -1427,6 +1420,15 @@ impl Pipeline for InMemory<'_> {
         };
         let cells_of = |t: usize| mesh.triangles[t].map(|v| vcell[v as usize]);
         let same = self.distinct_cell.to_bits() == grid.cell.to_bits();
+        if same && !self.first_only {
+            // The last probe was on this grid: only its triangles with three
+            // distinct cells (distinct keys are distinct ids) can be kept; the first
+            // over each cell triple, found as the sequential probe does.
+            self.three = self.distinct.len();
+            self.exact
+                .retain_first(&mut self.distinct, |t| cells_of(t as usize));
+            self.first_only = true;
+        }
         let stage1 = if same && self.first_only {
             // The last probe was on this grid and kept the first triangle over each
             // cell triple (distinct linear indices are distinct ids): the first
@@ -1444,17 +1446,8 @@ impl Pipeline for InMemory<'_> {
             }
         } else {
             let (mut stage1, mut set) = Stage1::new(expect);
-            if same {
-                // The last probe was on this grid: only its triangles with three
-                // distinct cells (distinct keys are distinct ids) can be kept.
-                for &t in &self.distinct {
-                    stage1.push(&mut set, cells_of(t as usize), mesh.group(t as usize));
-                }
-                stage1.collapsed = mesh.triangles.len() - self.distinct.len();
-            } else {
-                for t in 0..mesh.triangles.len() {
-                    stage1.push(&mut set, cells_of(t), mesh.group(t));
-                }
+            for t in 0..mesh.triangles.len() {
+                stage1.push(&mut set, cells_of(t), mesh.group(t));
             }
             stage1
         };

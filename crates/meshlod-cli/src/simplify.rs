@@ -103,11 +103,12 @@ pub struct SimplifyArgs {
     #[arg(long)]
     pub keep_corners: bool,
     /// vertex-removal: the removal order. `fast` (default): neighbours of a removal
-    /// wait at their previous cost, and a removal within 1.5x of the next queued
+    /// wait at their previous cost, and a removal within 1.2x of the next queued
     /// cost is done at once, until a removal's cost reaches 0.2% of the
     /// bounding-box diagonal; the exact order from there on. `exact`: always the
-    /// cheapest removal first (lowest error, about 1.4x the instructions). --order-slack and --defer-neighbours without
-    /// --order start from `exact`, as before.
+    /// cheapest removal first (lower error, about 1.5-1.9x the instructions).
+    /// --order-slack and --defer-neighbours without --order start from `exact`, as
+    /// before.
     #[arg(long, value_enum)]
     pub order: Option<OrderArg>,
     /// vertex-removal: order slack S >= 1: a removal whose exact cost is at most S

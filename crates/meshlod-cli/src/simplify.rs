@@ -112,26 +112,31 @@ pub struct SimplifyArgs {
     #[arg(long, value_enum)]
     pub order: Option<OrderArg>,
     /// vertex-removal: order slack S >= 1: a removal whose exact cost is at most S
-    /// times the next queued cost is done at once (1 = exact cheapest-first order).
+    /// times the next queued cost is done at once (1 = exact cheapest-first order;
+    /// given without --order it starts from the exact order).
     #[arg(long, value_name = "S")]
     pub order_slack: Option<f64>,
     /// vertex-removal: deferred re-keying: neighbours of a removal stay queued at
     /// their previous cost divided by P (>= 1) until they come out of the queue
-    /// (faster, inexact order; default: re-evaluated at once).
+    /// (faster, inexact order; given without --order it starts from the exact
+    /// order and defers for the whole run; default: --order).
     #[arg(long, value_name = "P")]
     pub defer_neighbours: Option<f64>,
-    /// vertex-removal, with --defer-neighbours: defer only while the removed
-    /// point's cost is below F times the bounding-box diagonal; exact order from the
-    /// first removal that reaches it on (default: defer for the whole run).
+    /// vertex-removal, while deferring (the fast order, or --defer-neighbours):
+    /// defer only while the removed point's cost is below F times the bounding-box
+    /// diagonal; exact order from the first removal that reaches it on (default:
+    /// 0.002 in the fast order; the whole run with --defer-neighbours alone).
     #[arg(long, value_name = "F")]
     pub defer_below: Option<f64>,
-    /// vertex-removal, with --defer-neighbours: bound a deferred neighbour's changed
-    /// fan at once and queue it at the larger of that bound and its deferred cost.
+    /// vertex-removal, while deferring (the fast order, or --defer-neighbours): bound
+    /// a deferred neighbour's changed fan at once and queue it at the larger of that
+    /// bound and its deferred cost.
     #[arg(long)]
     pub defer_bound: bool,
-    /// vertex-removal, with --defer-neighbours: order slack while deferring (until
-    /// --defer-below's switch); `inf`: every planned candidate is removed when it
-    /// comes out (default: --order-slack).
+    /// vertex-removal, while deferring (the fast order, or --defer-neighbours): order
+    /// slack until --defer-below's switch; `inf`: every planned candidate is removed
+    /// when it comes out (default: 1.2 in the fast order; --order-slack with
+    /// --defer-neighbours alone).
     #[arg(long, value_name = "S")]
     pub defer_slack: Option<f64>,
     /// qem, melax: skip the orientation repair (diagonal swaps that turn triangles
@@ -180,7 +185,6 @@ pub enum RepresentativeArg {
     Weighted,
 }
 
-/// `--method` values.
 /// `--order` (vertex removal).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
 pub enum OrderArg {
@@ -190,6 +194,7 @@ pub enum OrderArg {
     Exact,
 }
 
+/// `--method` values.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
 pub enum MethodArg {
     /// Quadric error metric edge collapse (Garland & Heckbert).
@@ -397,6 +402,13 @@ fn options(args: &SimplifyArgs) -> Result<SimplifyOptions> {
             bail!("--defer-neighbours {p} must be a finite number >= 1");
         }
         o = o.with_defer_neighbours(Some(p));
+    }
+    let defer_knobs = args.defer_below.is_some() || args.defer_slack.is_some() || args.defer_bound;
+    if defer_knobs && o.defer_neighbours.is_none() {
+        bail!(
+            "--defer-below, --defer-slack and --defer-bound apply while deferring: use them \
+             with the fast order (the default) or with --defer-neighbours"
+        );
     }
     if let Some(f) = args.defer_below {
         if !(f >= 0.0 && f.is_finite()) {

@@ -249,6 +249,22 @@ fn vertex_removal_order() {
         &["--method", "vertex-removal", "--order", "sideways"],
     );
     assert!(!bad.status.success());
+    // The deferral knobs are refused where nothing defers (the exact order, or the
+    // order slack alone, which starts from it) instead of being ignored.
+    for extra in [
+        &["--order", "exact", "--defer-slack", "2"][..],
+        &["--order-slack", "1.3", "--defer-below", "0.001"][..],
+        &["--order", "exact", "--defer-bound"][..],
+    ] {
+        let mut args = vec!["--method", "vertex-removal"];
+        args.extend_from_slice(extra);
+        let out = simplify(&input, dir.path().join("refused.ply"), &args);
+        assert!(!out.status.success(), "{extra:?} accepted");
+        assert!(
+            String::from_utf8_lossy(&out.stderr).contains("--defer-neighbours"),
+            "{extra:?}"
+        );
+    }
 }
 
 /// `--method cluster` lands within `--count-tolerance` of `--triangles` (default 5%);

@@ -193,6 +193,9 @@ pub struct SimplifyOptions {
     /// most `S ×` the next queued key is performed without being queued again (`1` =
     /// the exact order). Default
     /// [`DEFAULT_ORDER_SLACK`](crate::decimate::vertex_removal::DEFAULT_ORDER_SLACK).
+    /// In the fast order (the default) it applies only after the switch of
+    /// [`Self::defer_below`]; before it, [`Self::defer_slack`] does. To refine the
+    /// exact order, call [`Self::with_exact_order`] first (it resets this slack).
     pub order_slack: f64,
     /// [`Method::VertexRemoval`]: deferred re-keying: `Some(p)` (`p ≥ 1`) leaves the
     /// neighbours of a removal queued at their previous key divided by `p` until they
@@ -384,7 +387,8 @@ impl SimplifyOptions {
         self
     }
     /// [`Method::VertexRemoval`]: the exact order (cheapest removal first; no
-    /// deferral, no slack). The default is the fast order
+    /// deferral, no slack: it resets [`Self::order_slack`], so call it before
+    /// [`Self::with_order_slack`]). The default is the fast order
     /// ([`VertexRemovalOptions::with_fast_order`](crate::decimate::vertex_removal::VertexRemovalOptions::with_fast_order)).
     #[must_use]
     pub fn with_exact_order(mut self) -> Self {

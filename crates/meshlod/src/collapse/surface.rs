@@ -746,6 +746,9 @@ impl Surface {
     pub(crate) fn single_oriented_fan(&mut self, p: u32) -> Option<bool> {
         let s = self.fan_slot[p as usize].start as usize;
         let fl = self.fan_slot[p as usize].len as usize;
+        if fl > 16 {
+            return None;
+        }
         let g = self.next_gen();
         let mut b = [0u32; 16];
         for (i, &t) in self.fans[s..s + fl].iter().enumerate() {

@@ -79,7 +79,8 @@
 //! `n²/2⁶⁵`: about 2·10⁻⁷ for 3M kept triangles; a collision would lower a probe's
 //! count by one on that path only). Above 2¹⁶ triples, either is deduplicated by
 //! partition (a stable counting sort by hash into cache-sized buckets, the same
-//! result). ε starts from the projected area `P` (the areas of the
+//! result); after a parallel probe, the first stage keeps the first triangle over
+//! each triple by the same partitioned pass. ε starts from the projected area `P` (the areas of the
 //! triangles' projections on the three coordinate planes, estimated on at most 8192
 //! triangles): a surface meets about `P/ε²` cells whatever its orientation, and the
 //! probe count is about `1.74·P/ε²` on the shared test meshes (1.55–1.87), times

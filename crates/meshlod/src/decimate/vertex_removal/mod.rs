@@ -2210,7 +2210,9 @@ impl VertexRemoval {
                         self.push(&mut heap, q, next);
                     } else if defer_bound {
                         // Bound the changed fan now; queue the larger of the bound
-                        // and the deferred key (planned when it comes out).
+                        // and the deferred key (planned when it comes out). Queued at
+                        // the deferred key, the point still waits: the switch to the
+                        // exact order evaluates it again.
                         self.waiting[qi] = false;
                         if let Err(r) = self.evaluate_bound(q) {
                             self.queued[qi] = 0;
@@ -2218,6 +2220,7 @@ impl VertexRemoval {
                             continue;
                         }
                         let bound = Item::default().with_cost(self.key()).cost_bits;
+                        self.waiting[qi] = bound < prov;
                         let cost_bits = bound.max(prov);
                         if bound > prov {
                             self.queued[qi] = bound;

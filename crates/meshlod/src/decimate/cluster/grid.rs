@@ -508,7 +508,11 @@ fn sorted3<T: PartialOrd>(mut t: [T; 3]) -> [T; 3] {
 /// Open-addressing set of unordered triples of `u32` (triangles up to rotation and
 /// winding): [`Self::insert`] says whether the triple is new.
 #[derive(Debug, Clone)]
-pub struct TripleSet(OpenSet<[u32; 3]>, Vec<(u32, [u32; 3])>, Vec<[u32; 3]>);
+pub struct TripleSet(
+    OpenSet<[u32; 3]>,
+    Vec<(u32, [u32; 3])>,
+    Vec<(u32, [u32; 3])>,
+);
 
 impl TripleSet {
     /// A set sized for about `expected` triples.
@@ -534,7 +538,7 @@ impl TripleSet {
     /// Bytes held.
     #[must_use]
     pub fn bytes(&self) -> usize {
-        (self.0.slots.capacity() + self.2.capacity()) * 12 + self.1.capacity() * 16
+        self.0.slots.capacity() * 12 + (self.1.capacity() + self.2.capacity()) * 16
     }
 
     /// Keeps the items of `items` whose triple `triple(x)` (any order; distinct
@@ -548,10 +552,7 @@ impl TripleSet {
     /// the last bucket (partitioned inputs).
     #[inline]
     pub fn retain_first<T: Copy>(&mut self, items: &mut Vec<T>, triple: impl Fn(T) -> [u32; 3]) {
-        /// Items per bucket aimed at: a table of 2¹³ slots of 12 bytes.
-        const PER_BUCKET: usize = 1 << 12;
         let n = items.len();
-        let buckets = (n / PER_BUCKET).next_power_of_two();
         if n <= ONE_SET_MAX {
             // One set; `retain` as a plain loop (it inlines into the caller).
             self.reset(n);
@@ -566,31 +567,21 @@ impl TripleSet {
             items.truncate(kept);
             return;
         }
-        let shift = 64 - buckets.trailing_zeros();
-        let bucket = |t: [u32; 3]| (bucket_hash(t) >> shift) as usize;
-        // A stable counting sort of (position, sorted triple) by bucket.
-        let mut start = vec![0u32; buckets + 1];
-        let sorted = &mut self.2;
-        sorted.clear();
-        sorted.extend(items.iter().map(|&x| sorted3(triple(x))));
-        for &t in sorted.iter() {
-            start[bucket(t) + 1] += 1;
-        }
-        for b in 0..buckets {
-            start[b + 1] += start[b];
-        }
+        // (position, sorted triple) in order, partitioned by the triple's hash.
+        let indexed = &mut self.2;
+        indexed.clear();
+        indexed.extend(
+            items
+                .iter()
+                .enumerate()
+                .map(|(i, &x)| (i as u32, sorted3(triple(x)))),
+        );
         let parts = &mut self.1;
-        parts.clear();
-        parts.resize(n, (0, [0; 3]));
-        let mut next = start.clone();
-        for (i, &t) in sorted.iter().enumerate() {
-            let b = bucket(t);
-            parts[next[b] as usize] = (i as u32, t);
-            next[b] += 1;
-        }
+        let start = partition(indexed, |&(_, t)| bucket_hash(t), parts);
+        let buckets = start.len() - 1;
         let mut keep = vec![false; n];
         for b in 0..buckets {
-            let part = &parts[start[b] as usize..start[b + 1] as usize];
+            let part = &parts[start[b]..start[b + 1]];
             self.0.reset(part.len());
             for &(i, t) in part {
                 keep[i as usize] = self.0.insert(t);
@@ -602,6 +593,40 @@ impl TripleSet {
             keep[i - 1]
         });
     }
+}
+
+/// Items per bucket aimed at by [`partition`]: a table of 2¹³ slots, which stays in
+/// a core's cache.
+const PER_BUCKET: usize = 1 << 12;
+
+/// A stable counting sort of `items` into `out` by the high bits of `hash(x)`, in
+/// as many buckets (a power of two) as give about [`PER_BUCKET`] items each; returns
+/// where each bucket starts in `out` (and, last, `items.len()`).
+fn partition<T: Copy + Default>(
+    items: &[T],
+    hash: impl Fn(&T) -> u64,
+    out: &mut Vec<T>,
+) -> Vec<usize> {
+    let buckets = (items.len() / PER_BUCKET).next_power_of_two();
+    let shift = 64 - buckets.trailing_zeros();
+    // `checked_shr`: one bucket (shift 64) takes every item.
+    let bucket = |x: &T| hash(x).checked_shr(shift).unwrap_or(0) as usize;
+    let mut start = vec![0usize; buckets + 1];
+    for x in items {
+        start[bucket(x) + 1] += 1;
+    }
+    for b in 0..buckets {
+        start[b + 1] += start[b];
+    }
+    out.clear();
+    out.resize(items.len(), T::default());
+    let mut next = start.clone();
+    for x in items {
+        let b = bucket(x);
+        out[next[b]] = *x;
+        next[b] += 1;
+    }
+    start
 }
 
 /// Up to this many triples are deduplicated in one set (at most 2¹⁷ slots, 1.5 MB
@@ -664,32 +689,15 @@ impl KeyTriples {
 
     /// Number of distinct triples added.
     pub(crate) fn count(&mut self) -> usize {
-        /// Hashes per bucket aimed at: a table of 2¹³ slots of 8 bytes.
-        const PER_BUCKET: usize = 1 << 12;
         let n = self.hashes.len();
-        let buckets = (n / PER_BUCKET).next_power_of_two();
         if n <= ONE_SET_MAX {
             self.set.reset(n);
             self.hashes.iter().for_each(|&h| _ = self.set.insert(h));
             return self.set.len;
         }
         // The buckets are the high bits; the slots (`h >> 7`) the low ones.
-        let shift = 64 - buckets.trailing_zeros();
-        let mut start = vec![0usize; buckets + 1];
-        for &h in &self.hashes {
-            start[(h >> shift) as usize + 1] += 1;
-        }
-        for b in 0..buckets {
-            start[b + 1] += start[b];
-        }
-        self.parts.clear();
-        self.parts.resize(n, 0);
-        let mut next = start.clone();
-        for &h in &self.hashes {
-            let b = (h >> shift) as usize;
-            self.parts[next[b]] = h;
-            next[b] += 1;
-        }
+        let start = partition(&self.hashes, |&h| h, &mut self.parts);
+        let buckets = start.len() - 1;
         let mut distinct = 0;
         for b in 0..buckets {
             let part = &self.parts[start[b]..start[b + 1]];

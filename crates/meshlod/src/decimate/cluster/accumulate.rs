@@ -127,7 +127,7 @@ impl Block {
 /// The first half of [`Prepared::new`] on `n ≤ BLOCK` triangles, `corners(i)` for
 /// `i < n`, into `out` (then [`Block::plane`]): the square roots and divisions in
 /// loops of their own so that they pipeline (and vectorise).
-#[inline]
+#[inline(always)]
 pub(crate) fn prepare_block(
     n: usize,
     mut corners: impl FnMut(usize) -> [[f32; 3]; 3],

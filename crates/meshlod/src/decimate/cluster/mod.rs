@@ -1759,18 +1759,29 @@ impl Accumulation<'_> {
         let vcell = &self.vcell[..nv];
         let positions = &mesh.positions[..nv];
         let mut used = used.map(|u| &mut u[..nv]);
-        for tri in &mesh.triangles {
-            let c = tri.map(|v| vcell[v as usize]);
-            if let Some(u) = used.as_deref_mut() {
-                for &v in tri {
-                    u[v as usize] = true;
+        let mut planes = Block::new();
+        for block in mesh.triangles.chunks(BLOCK) {
+            // The square roots and divisions of a block in loops of their own, so
+            // that they pipeline instead of chaining one triangle after another.
+            prepare_block(
+                block.len(),
+                |i| block[i].map(|v| positions[v as usize]),
+                self.origin,
+                &mut planes,
+            );
+            for (i, tri) in block.iter().enumerate() {
+                let c = tri.map(|v| vcell[v as usize]);
+                if let Some(u) = used.as_deref_mut() {
+                    for &v in tri {
+                        u[v as usize] = true;
+                    }
                 }
+                let plane = &planes.plane(i);
+                let w = corner_weights(plane, self.how, |k| {
+                    self.factors.map_or(1.0, |f| f64::from(f[tri[k] as usize]))
+                });
+                add_triangle::<QUADRIC>(accs, 0, c, plane, w);
             }
-            let plane = &Prepared::new(&tri.map(|v| positions[v as usize]), self.origin);
-            let w = corner_weights(plane, self.how, |k| {
-                self.factors.map_or(1.0, |f| f64::from(f[tri[k] as usize]))
-            });
-            add_triangle::<QUADRIC>(accs, 0, c, plane, w);
         }
     }
 }

@@ -1664,9 +1664,12 @@ fn closest_sources(
         // The sum in this order (a sum from ±0 adds the same).
         let d = x[0] * x[0] + x[1] * x[1] + x[2] * x[2];
         let b = &mut best_of[o];
-        if d < b.0 {
-            *b = (d, (start + i) as u32);
-        }
+        // Selects, not a branch: which vertex is closer is as good as random.
+        let closer = d < b.0;
+        *b = (
+            if closer { d } else { b.0 },
+            if closer { (start + i) as u32 } else { b.1 },
+        );
     }
     best
 }
@@ -2189,11 +2192,10 @@ fn edge_counts_impl(triangles: &[[u32; 3]], vertices: usize) -> EdgeCounts {
             let mut side = |k: usize, k1: usize| {
                 let (a, b) = (tri[k], tri[k1]);
                 let (ck, ck1) = (c + k as u32, c + k1 as u32);
-                let (small, b, ca, cb) = if a < b {
-                    (a, b, ck, ck1)
-                } else {
-                    (b, a, ck1, ck)
-                };
+                // Selects, not a branch (the winding decides, as good as random).
+                let swap = a >= b;
+                let (small, b) = (a.min(b), a.max(b));
+                let (ca, cb) = if swap { (ck1, ck) } else { (ck, ck1) };
                 let h = &mut heads[small as usize];
                 let next = *h;
                 *h = ck;

@@ -130,10 +130,11 @@
 //! Cell ids come from a flat array over the grid when the grid is small (in memory:
 //! at most eight grid cells per vertex; streamed: sixteen per expected occupied
 //! cell, so memory stays proportional to the occupied cells), from open addressing
-//! otherwise. The sequential accumulation computes each triangle's plane where it
-//! adds it (one pass: cells, used vertices, corners); the parallel workers compute
-//! the planes of a block of 64 triangles at a time (square roots and divisions in
-//! loops of their own), bit for bit the same. The output's manifold counts chain
+//! otherwise. The accumulation computes the planes of a block of 64 triangles at a
+//! time (square roots and divisions in loops of their own, so that they overlap
+//! instead of chaining one triangle after the next; bit for bit the planes of one
+//! triangle at a time, as the streaming path computes them), then adds the block's
+//! triangles in order (the sequential path also marks the used vertices there). The output's manifold counts chain
 //! its edge sides per smaller end and walk each vertex's fans along per-corner
 //! links (linear in the output, no sort). The sequential in-memory loops (the
 //! accumulation, the probes' cells and counts, the representatives, the attribute

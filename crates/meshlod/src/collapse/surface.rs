@@ -883,12 +883,17 @@ impl Surface {
     pub fn neighbours(&mut self, p: u32, out: &mut Vec<u32>) {
         out.clear();
         let g = self.next_gen();
-        let s = self.fan_slot[p as usize].start as usize;
-        for i in 0..self.fan_slot[p as usize].len as usize {
-            let t = self.fans[s + i];
-            for &x in &self.tri[t as usize] {
-                if x != p && self.mark[x as usize] != g {
-                    self.mark[x as usize] = g;
+        let slot = self.fan_slot[p as usize];
+        let (s, l) = (slot.start as usize, slot.len as usize);
+        let fan = &self.fans[s..s + l];
+        let tri = &self.tri[..];
+        let mark = &mut self.mark[..];
+        // `p` marked first: it is then skipped like an already listed point.
+        mark[p as usize] = g;
+        for &t in fan {
+            for &x in &tri[t as usize] {
+                if mark[x as usize] != g {
+                    mark[x as usize] = g;
                     out.push(x);
                 }
             }

@@ -426,7 +426,9 @@ fn run_impl<C: CostModel + ?Sized>(
         // Drop stale entries once the queue holds more than ~2 entries per live
         // triangle (there are ~1.5 live pairs per triangle): bounds its memory.
         if d.heap.len() > 2 * d.surface.live_triangles() + STALE_SLACK {
-            let version = &d.version;
+            // A slice, not the `Vec`: its pointer and length are then loaded once,
+            // not again for every entry.
+            let version = &d.version[..];
             d.heap.retain(|e| {
                 let (a, b) = (e.a, e.b);
                 (version[a as usize].wrapping_add(version[b as usize]) << 1) | (e.stamp & 1)

@@ -165,7 +165,21 @@ impl Qem {
         b: u32,
         moves: &Moves,
     ) -> Option<(Choice, f64)> {
-        let (pa, pb) = (surface.local(a), surface.local(b));
+        self.choose_at(q, surface, a, surface.local(a), b, moves)
+    }
+
+    /// [`Self::choose_impl`] with `a`'s local position `pa` given.
+    #[inline(always)]
+    fn choose_at(
+        &self,
+        q: &Quadric,
+        surface: &Surface,
+        a: u32,
+        pa: [f64; 3],
+        b: u32,
+        moves: &Moves,
+    ) -> Option<(Choice, f64)> {
+        let pb = surface.local(b);
         let at = |removed: u32, kept: u32, p: [f64; 3]| {
             (Choice::At { removed, kept }, q.evaluate(p).max(0.0))
         };
@@ -290,6 +304,20 @@ impl CostModel for Qem {
     fn evaluate_cost(&self, surface: &Surface, a: u32, b: u32, moves: &Moves) -> Option<f64> {
         let q = self.quadrics[a as usize].sum(&self.quadrics[b as usize]);
         self.choose(&q, surface, a, b, moves).map(|(_, cost)| cost)
+    }
+
+    #[inline(always)]
+    fn evaluate_cost_near(
+        &self,
+        surface: &Surface,
+        a: u32,
+        pa: [f64; 3],
+        b: u32,
+        moves: &Moves,
+    ) -> Option<f64> {
+        let q = self.quadrics[a as usize].sum(&self.quadrics[b as usize]);
+        self.choose_at(&q, surface, a, pa, b, moves)
+            .map(|(_, cost)| cost)
     }
 
     fn prefetch(&self, points: &[u32]) {

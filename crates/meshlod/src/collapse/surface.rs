@@ -1087,9 +1087,17 @@ impl Surface {
         let mut dying_t = [DEAD; 2];
         let pu = f64x3(self.pos[u as usize]);
         let su = self.fan_slot[u as usize].start as usize;
-        for i in 0..self.fan_slot[u as usize].len as usize {
-            let t = self.fans[su + i];
-            let tt = self.tri[t as usize];
+        let lu = self.fan_slot[u as usize].len as usize;
+        // Field borrows: the arrays' pointers and lengths stay in registers (the
+        // pushes to `changed` would otherwise make them reload every triangle).
+        let (fans, tri, pos, mark) = (
+            &self.fans[..],
+            &self.tri[..],
+            &self.pos[..],
+            &mut self.mark[..],
+        );
+        for &t in &fans[su..su + lu] {
+            let tt = tri[t as usize];
             if tt.contains(&v) {
                 if dying == 2 {
                     return Err(Reject::NonManifoldEdge);
@@ -1098,11 +1106,11 @@ impl Surface {
                 dying_t[dying] = t;
                 dying += 1;
             } else {
-                changed.push(self.moved_triangle(t, tt, u, pu, geo)?);
+                changed.push(Self::moved_triangle(pos, t, tt, u, pu, geo)?);
             }
             for &x in &tt {
                 if x != u {
-                    self.mark[x as usize] = g;
+                    mark[x as usize] = g;
                 }
             }
         }
@@ -1142,11 +1150,12 @@ impl Surface {
         // non-edge pair may have none) and the triangles that survive with v moved.
         let pv = f64x3(self.pos[v as usize]);
         let sv = self.fan_slot[v as usize].start as usize;
-        for i in 0..self.fan_slot[v as usize].len as usize {
-            let t = self.fans[sv + i];
-            let tt = self.tri[t as usize];
+        let lv = self.fan_slot[v as usize].len as usize;
+        let (fans, tri, pos, mark) = (&self.fans[..], &self.tri[..], &self.pos[..], &self.mark[..]);
+        for &t in &fans[sv..sv + lv] {
+            let tt = tri[t as usize];
             for &x in &tt {
-                if x != v && x != u && self.mark[x as usize] == g && x != opp[0] && x != opp[1] {
+                if x != v && x != u && mark[x as usize] == g && x != opp[0] && x != opp[1] {
                     return Err(if dying == 0 {
                         Reject::Pair
                     } else {
@@ -1155,7 +1164,7 @@ impl Surface {
                 }
             }
             if v_moves && !tt.contains(&u) {
-                changed.push(self.moved_triangle(t, tt, v, pv, geo)?);
+                changed.push(Self::moved_triangle(pos, t, tt, v, pv, geo)?);
             }
         }
         if dying == 0 {
@@ -1202,7 +1211,7 @@ impl Surface {
     /// so old and new share one edge vector.
     #[inline(always)]
     fn moved_triangle(
-        &self,
+        pos: &[[f32; 3]],
         t: u32,
         tt: [u32; 3],
         w: u32,
@@ -1216,8 +1225,8 @@ impl Surface {
         } else {
             2
         };
-        let q1 = f64x3(self.pos[tt[(k + 1) % 3] as usize]);
-        let q2 = f64x3(self.pos[tt[(k + 2) % 3] as usize]);
+        let q1 = f64x3(pos[tt[(k + 1) % 3] as usize]);
+        let q2 = f64x3(pos[tt[(k + 2) % 3] as usize]);
         let f = sub(q2, q1);
         let a0 = sub(pw, q1);
         let a1 = sub(geo.p, q1);
@@ -1348,18 +1357,20 @@ impl Surface {
         );
         let new_len = live_v + live_u;
         if new_len <= self.fan_slot[v as usize].cap as usize {
+            // Field borrows: the arrays' pointers and lengths stay in registers.
+            let (fans, tri) = (&mut self.fans[..], &self.tri[..]);
             let mut w = sv;
-            for i in 0..lv {
-                let t = self.fans[sv + i];
-                if self.tri[t as usize][0] != DEAD {
-                    self.fans[w] = t;
+            for i in sv..sv + lv {
+                let t = fans[i];
+                if tri[t as usize][0] != DEAD {
+                    fans[w] = t;
                     w += 1;
                 }
             }
-            for i in 0..lu {
-                let t = self.fans[su + i];
-                if self.tri[t as usize][0] != DEAD {
-                    self.fans[w] = t;
+            for i in su..su + lu {
+                let t = fans[i];
+                if tri[t as usize][0] != DEAD {
+                    fans[w] = t;
                     w += 1;
                 }
             }

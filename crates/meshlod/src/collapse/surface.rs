@@ -750,9 +750,16 @@ impl Surface {
             return None;
         }
         let g = self.next_gen();
+        // Field borrows: the arrays' pointers and lengths stay in registers.
+        let (fans, tri, mark, slot) = (
+            &self.fans[..],
+            &self.tri[..],
+            &mut self.mark[..],
+            &mut self.slot[..],
+        );
         let mut b = [0u32; 16];
-        for (i, &t) in self.fans[s..s + fl].iter().enumerate() {
-            let tt = self.tri[t as usize];
+        for (i, &t) in fans[s..s + fl].iter().enumerate() {
+            let tt = tri[t as usize];
             let (a, bi) = if tt[0] == p {
                 (tt[1], tt[2])
             } else if tt[1] == p {
@@ -761,11 +768,11 @@ impl Surface {
                 (tt[0], tt[1])
             };
             let ai = a as usize;
-            if self.mark[ai] == g {
+            if mark[ai] == g {
                 return None;
             }
-            self.mark[ai] = g;
-            self.slot[ai] = i as u32;
+            mark[ai] = g;
+            slot[ai] = i as u32;
             b[i] = bi;
         }
         // next[i]: the triangle whose `a` is `b[i]`.
@@ -774,8 +781,8 @@ impl Surface {
         let mut open = 0;
         for (i, &bi) in b[..fl].iter().enumerate() {
             let bi = bi as usize;
-            if self.mark[bi] == g {
-                let j = self.slot[bi];
+            if mark[bi] == g {
+                let j = slot[bi];
                 if has_prev >> j & 1 != 0 {
                     return None;
                 }

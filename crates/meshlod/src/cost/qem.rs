@@ -249,7 +249,12 @@ impl CostModel for Qem {
             if tt[0] == crate::collapse::DEAD {
                 continue;
             }
-            let [a, b, c] = tt.map(|p| surface.local(p));
+            // (Not `tt.map`: an out-of-line call per triangle.)
+            let [a, b, c] = [
+                surface.local(tt[0]),
+                surface.local(tt[1]),
+                surface.local(tt[2]),
+            ];
             if let Some(mut q) = Quadric::from_triangle(a, b, c) {
                 // Weight area^α · mean^(1−α): α = 1 is the classic area weight.
                 let alpha = self.options.area_exponent;

@@ -399,10 +399,14 @@ impl Surface {
     fn compact_fans(&mut self) {
         // Sorted by start through packed keys (one sequential pass to build them,
         // no lookups while sorting).
-        let mut order: Vec<u64> = (0..self.pos.len() as u32)
-            .filter(|&p| self.fan_slot[p as usize].len > 0)
-            .map(|p| (u64::from(self.fan_slot[p as usize].start) << 32) | u64::from(p))
-            .collect();
+        // Counted first: the list is allocated once, at its size.
+        let live = self.fan_slot.iter().filter(|s| s.len > 0).count();
+        let mut order: Vec<u64> = Vec::with_capacity(live);
+        for (p, slot) in self.fan_slot.iter().enumerate() {
+            if slot.len > 0 {
+                order.push((u64::from(slot.start) << 32) | p as u64);
+            }
+        }
         crate::radix::sort_by_high_half(&mut order);
         let mut w = 0usize;
         for &key in &order {
@@ -410,7 +414,9 @@ impl Surface {
             let slot = self.fan_slot[p as usize];
             let (s, l) = (slot.start as usize, slot.len as usize);
             debug_assert!(w <= s && slot.cap >= slot.len);
-            self.fans.copy_within(s..s + l, w);
+            if w != s {
+                self.fans.copy_within(s..s + l, w);
+            }
             let cap = (slot.len + FAN_SLACK).min(slot.cap) as usize;
             self.fans[w + l..w + cap].fill(DEAD);
             self.fan_slot[p as usize].start = w as u32;

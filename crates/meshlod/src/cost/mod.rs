@@ -60,7 +60,9 @@ pub trait CostModel {
     }
 
     /// [`CostModel::evaluate_cost`] given `pa = surface.local(a)` (what the driver
-    /// has at hand when it re-queues all pairs of `a`). Default: `evaluate_cost`.
+    /// has at hand when it re-queues all pairs of `a`, so a model need not convert
+    /// it again for each). Must equal `evaluate_cost` exactly. Default:
+    /// `evaluate_cost`.
     #[inline(always)]
     fn evaluate_cost_near(
         &self,

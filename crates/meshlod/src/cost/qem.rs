@@ -392,8 +392,8 @@ mod tests {
     use crate::collapse::BuildOptions;
     use crate::mesh::Mesh;
 
-    /// `evaluate_cost` (what the driver queues) is bit-for-bit the cost of
-    /// `evaluate`, for every edge of a bumpy open grid (interior, border and corner
+    /// `evaluate_cost` and `evaluate_cost_near` (what the driver queues) are bit for
+    /// bit the cost of `evaluate`, for every edge of a bumpy open grid (interior, border and corner
     /// points), every placement and every combination of allowed moves.
     #[test]
     fn evaluate_cost_matches_evaluate() {
@@ -426,6 +426,13 @@ mod tests {
                                 full.map(f64::to_bits),
                                 lean.map(f64::to_bits),
                                 "pair ({a}, {b}) {moves:?} {placement:?}"
+                            );
+                            let near =
+                                qem.evaluate_cost_near(&surface, a, surface.local(a), b, &moves);
+                            assert_eq!(
+                                full.map(f64::to_bits),
+                                near.map(f64::to_bits),
+                                "pair ({a}, {b}) {moves:?} {placement:?}, a's position given"
                             );
                             checked += 1;
                         }

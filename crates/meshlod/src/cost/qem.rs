@@ -393,8 +393,9 @@ mod tests {
     use crate::mesh::Mesh;
 
     /// `evaluate_cost` and `evaluate_cost_near` (what the driver queues) are bit for
-    /// bit the cost of `evaluate`, for every edge of a bumpy open grid (interior, border and corner
-    /// points), every placement and every combination of allowed moves.
+    /// bit the cost of `evaluate`, for every edge of a bumpy open grid (interior,
+    /// border and corner points), every placement and every combination of allowed
+    /// moves.
     #[test]
     fn evaluate_cost_matches_evaluate() {
         let mesh = crate::mesh::generate::grid(9, 7, |x, y| {

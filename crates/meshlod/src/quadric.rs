@@ -126,6 +126,7 @@ impl Quadric {
     }
 
     /// Adds `other` (matrix and weight).
+    #[inline(always)]
     pub fn add(&mut self, other: &Self) {
         for (a, b) in self.m.iter_mut().zip(other.m.iter()) {
             *a += b;
@@ -135,6 +136,7 @@ impl Quadric {
 
     /// `self + other`.
     #[must_use]
+    #[inline(always)]
     pub fn sum(&self, other: &Self) -> Self {
         let mut s = *self;
         s.add(other);

@@ -399,10 +399,14 @@ impl Surface {
     fn compact_fans(&mut self) {
         // Sorted by start through packed keys (one sequential pass to build them,
         // no lookups while sorting).
-        let mut order: Vec<u64> = (0..self.pos.len() as u32)
-            .filter(|&p| self.fan_slot[p as usize].len > 0)
-            .map(|p| (u64::from(self.fan_slot[p as usize].start) << 32) | u64::from(p))
-            .collect();
+        // Counted first: the list is allocated once, at its size.
+        let live = self.fan_slot.iter().filter(|s| s.len > 0).count();
+        let mut order: Vec<u64> = Vec::with_capacity(live);
+        for (p, slot) in self.fan_slot.iter().enumerate() {
+            if slot.len > 0 {
+                order.push((u64::from(slot.start) << 32) | p as u64);
+            }
+        }
         crate::radix::sort_by_high_half(&mut order);
         let mut w = 0usize;
         for &key in &order {
@@ -410,7 +414,9 @@ impl Surface {
             let slot = self.fan_slot[p as usize];
             let (s, l) = (slot.start as usize, slot.len as usize);
             debug_assert!(w <= s && slot.cap >= slot.len);
-            self.fans.copy_within(s..s + l, w);
+            if w != s {
+                self.fans.copy_within(s..s + l, w);
+            }
             let cap = (slot.len + FAN_SLACK).min(slot.cap) as usize;
             self.fans[w + l..w + cap].fill(DEAD);
             self.fan_slot[p as usize].start = w as u32;
@@ -750,9 +756,16 @@ impl Surface {
             return None;
         }
         let g = self.next_gen();
+        // Field borrows: the arrays' pointers and lengths stay in registers.
+        let (fans, tri, mark, slot) = (
+            &self.fans[..],
+            &self.tri[..],
+            &mut self.mark[..],
+            &mut self.slot[..],
+        );
         let mut b = [0u32; 16];
-        for (i, &t) in self.fans[s..s + fl].iter().enumerate() {
-            let tt = self.tri[t as usize];
+        for (i, &t) in fans[s..s + fl].iter().enumerate() {
+            let tt = tri[t as usize];
             let (a, bi) = if tt[0] == p {
                 (tt[1], tt[2])
             } else if tt[1] == p {
@@ -761,11 +774,11 @@ impl Surface {
                 (tt[0], tt[1])
             };
             let ai = a as usize;
-            if self.mark[ai] == g {
+            if mark[ai] == g {
                 return None;
             }
-            self.mark[ai] = g;
-            self.slot[ai] = i as u32;
+            mark[ai] = g;
+            slot[ai] = i as u32;
             b[i] = bi;
         }
         // next[i]: the triangle whose `a` is `b[i]`.
@@ -774,8 +787,8 @@ impl Surface {
         let mut open = 0;
         for (i, &bi) in b[..fl].iter().enumerate() {
             let bi = bi as usize;
-            if self.mark[bi] == g {
-                let j = self.slot[bi];
+            if mark[bi] == g {
+                let j = slot[bi];
                 if has_prev >> j & 1 != 0 {
                     return None;
                 }
@@ -883,12 +896,17 @@ impl Surface {
     pub fn neighbours(&mut self, p: u32, out: &mut Vec<u32>) {
         out.clear();
         let g = self.next_gen();
-        let s = self.fan_slot[p as usize].start as usize;
-        for i in 0..self.fan_slot[p as usize].len as usize {
-            let t = self.fans[s + i];
-            for &x in &self.tri[t as usize] {
-                if x != p && self.mark[x as usize] != g {
-                    self.mark[x as usize] = g;
+        let slot = self.fan_slot[p as usize];
+        let (s, l) = (slot.start as usize, slot.len as usize);
+        let fan = &self.fans[s..s + l];
+        let tri = &self.tri[..];
+        let mark = &mut self.mark[..];
+        // `p` marked first: it is then skipped like an already listed point.
+        mark[p as usize] = g;
+        for &t in fan {
+            for &x in &tri[t as usize] {
+                if mark[x as usize] != g {
+                    mark[x as usize] = g;
                     out.push(x);
                 }
             }
@@ -1082,9 +1100,17 @@ impl Surface {
         let mut dying_t = [DEAD; 2];
         let pu = f64x3(self.pos[u as usize]);
         let su = self.fan_slot[u as usize].start as usize;
-        for i in 0..self.fan_slot[u as usize].len as usize {
-            let t = self.fans[su + i];
-            let tt = self.tri[t as usize];
+        let lu = self.fan_slot[u as usize].len as usize;
+        // Field borrows: the arrays' pointers and lengths stay in registers (the
+        // pushes to `changed` would otherwise make them reload every triangle).
+        let (fans, tri, pos, mark) = (
+            &self.fans[..],
+            &self.tri[..],
+            &self.pos[..],
+            &mut self.mark[..],
+        );
+        for &t in &fans[su..su + lu] {
+            let tt = tri[t as usize];
             if tt.contains(&v) {
                 if dying == 2 {
                     return Err(Reject::NonManifoldEdge);
@@ -1093,11 +1119,11 @@ impl Surface {
                 dying_t[dying] = t;
                 dying += 1;
             } else {
-                changed.push(self.moved_triangle(t, tt, u, pu, geo)?);
+                changed.push(Self::moved_triangle(pos, t, tt, u, pu, geo)?);
             }
             for &x in &tt {
                 if x != u {
-                    self.mark[x as usize] = g;
+                    mark[x as usize] = g;
                 }
             }
         }
@@ -1137,11 +1163,12 @@ impl Surface {
         // non-edge pair may have none) and the triangles that survive with v moved.
         let pv = f64x3(self.pos[v as usize]);
         let sv = self.fan_slot[v as usize].start as usize;
-        for i in 0..self.fan_slot[v as usize].len as usize {
-            let t = self.fans[sv + i];
-            let tt = self.tri[t as usize];
+        let lv = self.fan_slot[v as usize].len as usize;
+        let (fans, tri, pos, mark) = (&self.fans[..], &self.tri[..], &self.pos[..], &self.mark[..]);
+        for &t in &fans[sv..sv + lv] {
+            let tt = tri[t as usize];
             for &x in &tt {
-                if x != v && x != u && self.mark[x as usize] == g && x != opp[0] && x != opp[1] {
+                if x != v && x != u && mark[x as usize] == g && x != opp[0] && x != opp[1] {
                     return Err(if dying == 0 {
                         Reject::Pair
                     } else {
@@ -1150,7 +1177,7 @@ impl Surface {
                 }
             }
             if v_moves && !tt.contains(&u) {
-                changed.push(self.moved_triangle(t, tt, v, pv, geo)?);
+                changed.push(Self::moved_triangle(pos, t, tt, v, pv, geo)?);
             }
         }
         if dying == 0 {
@@ -1197,7 +1224,7 @@ impl Surface {
     /// so old and new share one edge vector.
     #[inline(always)]
     fn moved_triangle(
-        &self,
+        pos: &[[f32; 3]],
         t: u32,
         tt: [u32; 3],
         w: u32,
@@ -1211,8 +1238,8 @@ impl Surface {
         } else {
             2
         };
-        let q1 = f64x3(self.pos[tt[(k + 1) % 3] as usize]);
-        let q2 = f64x3(self.pos[tt[(k + 2) % 3] as usize]);
+        let q1 = f64x3(pos[tt[(k + 1) % 3] as usize]);
+        let q2 = f64x3(pos[tt[(k + 2) % 3] as usize]);
         let f = sub(q2, q1);
         let a0 = sub(pw, q1);
         let a1 = sub(geo.p, q1);
@@ -1343,18 +1370,20 @@ impl Surface {
         );
         let new_len = live_v + live_u;
         if new_len <= self.fan_slot[v as usize].cap as usize {
+            // Field borrows: the arrays' pointers and lengths stay in registers.
+            let (fans, tri) = (&mut self.fans[..], &self.tri[..]);
             let mut w = sv;
-            for i in 0..lv {
-                let t = self.fans[sv + i];
-                if self.tri[t as usize][0] != DEAD {
-                    self.fans[w] = t;
+            for i in sv..sv + lv {
+                let t = fans[i];
+                if tri[t as usize][0] != DEAD {
+                    fans[w] = t;
                     w += 1;
                 }
             }
-            for i in 0..lu {
-                let t = self.fans[su + i];
-                if self.tri[t as usize][0] != DEAD {
-                    self.fans[w] = t;
+            for i in su..su + lu {
+                let t = fans[i];
+                if tri[t as usize][0] != DEAD {
+                    fans[w] = t;
                     w += 1;
                 }
             }

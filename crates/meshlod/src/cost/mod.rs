@@ -59,6 +59,23 @@ pub trait CostModel {
         self.evaluate(surface, a, b, moves).map(|c| c.cost)
     }
 
+    /// [`CostModel::evaluate_cost`] given `pa = surface.local(a)` (what the driver
+    /// has at hand when it re-queues all pairs of `a`, so a model need not convert
+    /// it again for each). Must equal `evaluate_cost` exactly. Default:
+    /// `evaluate_cost`.
+    #[inline(always)]
+    fn evaluate_cost_near(
+        &self,
+        surface: &Surface,
+        a: u32,
+        pa: [f64; 3],
+        b: u32,
+        moves: &Moves,
+    ) -> Option<f64> {
+        let _ = pa;
+        self.evaluate_cost(surface, a, b, moves)
+    }
+
     /// A hint that the driver is about to evaluate pairs among `points`: a model may
     /// read their state now, in one pass of independent loads, so the cache misses
     /// overlap instead of being paid one evaluation at a time. Must not change any

@@ -165,7 +165,21 @@ impl Qem {
         b: u32,
         moves: &Moves,
     ) -> Option<(Choice, f64)> {
-        let (pa, pb) = (surface.local(a), surface.local(b));
+        self.choose_at(q, surface, a, surface.local(a), b, moves)
+    }
+
+    /// [`Self::choose_impl`] with `a`'s local position `pa` given.
+    #[inline(always)]
+    fn choose_at(
+        &self,
+        q: &Quadric,
+        surface: &Surface,
+        a: u32,
+        pa: [f64; 3],
+        b: u32,
+        moves: &Moves,
+    ) -> Option<(Choice, f64)> {
+        let pb = surface.local(b);
         let at = |removed: u32, kept: u32, p: [f64; 3]| {
             (Choice::At { removed, kept }, q.evaluate(p).max(0.0))
         };
@@ -235,7 +249,12 @@ impl CostModel for Qem {
             if tt[0] == crate::collapse::DEAD {
                 continue;
             }
-            let [a, b, c] = tt.map(|p| surface.local(p));
+            // (Not `tt.map`: an out-of-line call per triangle.)
+            let [a, b, c] = [
+                surface.local(tt[0]),
+                surface.local(tt[1]),
+                surface.local(tt[2]),
+            ];
             if let Some(mut q) = Quadric::from_triangle(a, b, c) {
                 // Weight area^α · mean^(1−α): α = 1 is the classic area weight.
                 let alpha = self.options.area_exponent;
@@ -290,6 +309,20 @@ impl CostModel for Qem {
     fn evaluate_cost(&self, surface: &Surface, a: u32, b: u32, moves: &Moves) -> Option<f64> {
         let q = self.quadrics[a as usize].sum(&self.quadrics[b as usize]);
         self.choose(&q, surface, a, b, moves).map(|(_, cost)| cost)
+    }
+
+    #[inline(always)]
+    fn evaluate_cost_near(
+        &self,
+        surface: &Surface,
+        a: u32,
+        pa: [f64; 3],
+        b: u32,
+        moves: &Moves,
+    ) -> Option<f64> {
+        let q = self.quadrics[a as usize].sum(&self.quadrics[b as usize]);
+        self.choose_at(&q, surface, a, pa, b, moves)
+            .map(|(_, cost)| cost)
     }
 
     fn prefetch(&self, points: &[u32]) {
@@ -359,9 +392,10 @@ mod tests {
     use crate::collapse::BuildOptions;
     use crate::mesh::Mesh;
 
-    /// `evaluate_cost` (what the driver queues) is bit-for-bit the cost of
-    /// `evaluate`, for every edge of a bumpy open grid (interior, border and corner
-    /// points), every placement and every combination of allowed moves.
+    /// `evaluate_cost` and `evaluate_cost_near` (what the driver queues) are bit for
+    /// bit the cost of `evaluate`, for every edge of a bumpy open grid (interior,
+    /// border and corner points), every placement and every combination of allowed
+    /// moves.
     #[test]
     fn evaluate_cost_matches_evaluate() {
         let mesh = crate::mesh::generate::grid(9, 7, |x, y| {
@@ -393,6 +427,13 @@ mod tests {
                                 full.map(f64::to_bits),
                                 lean.map(f64::to_bits),
                                 "pair ({a}, {b}) {moves:?} {placement:?}"
+                            );
+                            let near =
+                                qem.evaluate_cost_near(&surface, a, surface.local(a), b, &moves);
+                            assert_eq!(
+                                full.map(f64::to_bits),
+                                near.map(f64::to_bits),
+                                "pair ({a}, {b}) {moves:?} {placement:?}, a's position given"
                             );
                             checked += 1;
                         }

@@ -94,6 +94,22 @@ impl<C: CostModel + ?Sized> Driver<'_, C> {
         )
     }
 
+    /// [`Self::entry`] given `pa = surface.local(a)`.
+    #[inline(always)]
+    fn entry_near(&self, a: u32, pa: [f64; 3], b: u32) -> Option<Item> {
+        let m = self.moves(a, b, false)?;
+        let c = self.cost.evaluate_cost_near(self.surface, a, pa, b, &m)?;
+        Some(
+            Item {
+                a,
+                b,
+                stamp: self.stamp(a, b, false),
+                cost_bits: 0,
+            }
+            .with_cost(c),
+        )
+    }
+
     fn entry(&self, a: u32, b: u32) -> Option<Item> {
         self.entry_with(a, b, false)
     }
@@ -117,9 +133,10 @@ impl<C: CostModel + ?Sized> Driver<'_, C> {
                 continue;
             }
             self.surface.neighbours(p, &mut nb);
+            let pp = self.surface.local(p);
             for &q in &nb {
                 if q > p {
-                    if let Some(e) = self.entry(p, q) {
+                    if let Some(e) = self.entry_near(p, pp, q) {
                         self.heap.push_unordered(e);
                     }
                 }
@@ -154,8 +171,9 @@ impl<C: CostModel + ?Sized> Driver<'_, C> {
             s = s.wrapping_add(self.version[q as usize]);
         }
         std::hint::black_box(s);
+        let pv = self.surface.local(v);
         for &q in &nb {
-            if let Some(e) = self.entry(v, q) {
+            if let Some(e) = self.entry_near(v, pv, q) {
                 self.heap.push(e);
             }
         }
@@ -426,7 +444,9 @@ fn run_impl<C: CostModel + ?Sized>(
         // Drop stale entries once the queue holds more than ~2 entries per live
         // triangle (there are ~1.5 live pairs per triangle): bounds its memory.
         if d.heap.len() > 2 * d.surface.live_triangles() + STALE_SLACK {
-            let version = &d.version;
+            // A slice, not the `Vec`: its pointer and length are then loaded once,
+            // not again for every entry.
+            let version = &d.version[..];
             d.heap.retain(|e| {
                 let (a, b) = (e.a, e.b);
                 (version[a as usize].wrapping_add(version[b as usize]) << 1) | (e.stamp & 1)

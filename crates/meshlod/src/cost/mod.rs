@@ -37,9 +37,12 @@ pub struct Candidate {
 
 /// Ranks collapses and keeps the per-vertex state that ranking needs.
 ///
-/// The driver calls [`CostModel::init`] once, [`CostModel::evaluate`] for every pair
-/// it considers (also again when a queued pair is popped, to get its position), and
-/// [`CostModel::collapsed`] after every performed collapse.
+/// The driver calls [`CostModel::init`] once; [`CostModel::evaluate_cost`] or
+/// [`CostModel::evaluate_cost_near`] for every pair it queues, and
+/// [`CostModel::evaluate`] when a queued pair is popped (to get its position); and
+/// [`CostModel::collapsed`] after every performed collapse. The three evaluations
+/// must agree on the cost bit for bit: the driver never compares them, so a model
+/// whose leaner methods disagree silently misorders the queue.
 pub trait CostModel {
     /// A short name for reports (`"qem"`).
     fn name(&self) -> &'static str;

@@ -139,8 +139,9 @@ enum Choice {
 
 impl Qem {
     /// The placement rule for pair `(a, b)` under the summed quadric `q`, and its
-    /// cost `q(x)` (clamped at 0): shared by [`CostModel::evaluate`] and the queue's
-    /// leaner [`CostModel::evaluate_cost`], so both give the same cost bit for bit.
+    /// cost `q(x)` (clamped at 0): shared, through [`Self::choose_at`], by
+    /// [`CostModel::evaluate`] and the queue's leaner [`CostModel::evaluate_cost`] and
+    /// [`CostModel::evaluate_cost_near`], so all three give the same cost bit for bit.
     ///
     /// Inlined into its callers: the driver's queue loop runs as the AVX2 build where
     /// the CPU has it ([`crate::isa`]; same bits), and this with it.

@@ -134,9 +134,9 @@
 //! time (square roots and divisions in loops of their own, so that they overlap
 //! instead of chaining one triangle after the next; bit for bit the planes of one
 //! triangle at a time, as the streaming path computes them), then adds the block's
-//! triangles in order (the sequential path also marks the used vertices there). The output's manifold counts chain
-//! its edge sides per smaller end and walk each vertex's fans along per-corner
-//! links (linear in the output, no sort). The sequential in-memory loops (the
+//! triangles in order (the sequential path also marks the used vertices there).
+//! The output's manifold counts chain its edge sides per smaller end and walk each
+//! vertex's fans along per-corner links (linear in the output, no sort). The sequential in-memory loops (the
 //! accumulation, the probes' cells and counts, the representatives, the attribute
 //! sources, the manifold counts) run as an AVX2 build when the CPU has it
 //! ([`crate::isa`]: no FMA, so every operation rounds as in the baseline build and
@@ -1753,8 +1753,9 @@ impl Accumulation<'_> {
         }
     }
 
-    /// [`Self::run`] for one worker owning every cell: every triangle in order, its
-    /// cells gathered (and its vertices marked in `used`) where its corners are read.
+    /// [`Self::run`] for one worker owning every cell: a block's planes are prepared
+    /// first, then each of its triangles, in order, has its cells gathered, its
+    /// vertices marked in `used` and its contributions added.
     #[inline(always)]
     fn run_all<const QUADRIC: bool>(&self, accs: &mut [Acc], used: Option<&mut [bool]>) {
         let mesh = self.mesh;

@@ -136,9 +136,10 @@
 //! triangle at a time, as the streaming path computes them), then adds the block's
 //! triangles in order (the sequential path also marks the used vertices there).
 //! The output's manifold counts chain its edge sides per smaller end and walk each
-//! vertex's fans along per-corner links (linear in the output, no sort). The sequential in-memory loops (the
-//! accumulation, the probes' cells and counts, the representatives, the attribute
-//! sources, the manifold counts) run as an AVX2 build when the CPU has it
+//! vertex's fans along per-corner links (linear in the output, no sort). The
+//! sequential in-memory loops (the accumulation, the probes' cells and counts, the
+//! representatives, the attribute sources, the manifold counts) run as an AVX2 build
+//! when the CPU has it
 //! ([`crate::isa`]: no FMA, so every operation rounds as in the baseline build and
 //! the output is the same bit for bit; `MESHLOD_NO_AVX2=1` forces the baseline).
 //!

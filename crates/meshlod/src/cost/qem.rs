@@ -154,22 +154,10 @@ impl Qem {
         b: u32,
         moves: &Moves,
     ) -> Option<(Choice, f64)> {
-        self.choose_impl(q, surface, a, b, moves)
-    }
-
-    #[inline(always)]
-    fn choose_impl(
-        &self,
-        q: &Quadric,
-        surface: &Surface,
-        a: u32,
-        b: u32,
-        moves: &Moves,
-    ) -> Option<(Choice, f64)> {
         self.choose_at(q, surface, a, surface.local(a), b, moves)
     }
 
-    /// [`Self::choose_impl`] with `a`'s local position `pa` given.
+    /// [`Self::choose`] with `a`'s local position `pa` given.
     #[inline(always)]
     fn choose_at(
         &self,
@@ -308,8 +296,7 @@ impl CostModel for Qem {
 
     #[inline(always)]
     fn evaluate_cost(&self, surface: &Surface, a: u32, b: u32, moves: &Moves) -> Option<f64> {
-        let q = self.quadrics[a as usize].sum(&self.quadrics[b as usize]);
-        self.choose(&q, surface, a, b, moves).map(|(_, cost)| cost)
+        self.evaluate_cost_near(surface, a, surface.local(a), b, moves)
     }
 
     #[inline(always)]
@@ -474,14 +461,13 @@ mod tests {
                     continue;
                 };
                 let q = qem.quadric(a).sum(&qem.quadric(b));
-                let (base, avx) =
-                    crate::isa::both!(bits(qem.choose_impl(&q, &surface, a, b, &moves)));
+                let (base, avx) = crate::isa::both!(bits(qem.choose(&q, &surface, a, b, &moves)));
                 if let Some(avx) = avx {
                     assert_eq!(base, avx, "pair ({a}, {b})");
                     compared += 1;
                 }
                 solved += usize::from(matches!(
-                    qem.choose_impl(&q, &surface, a, b, &moves),
+                    qem.choose(&q, &surface, a, b, &moves),
                     Some((Choice::Free(_), _))
                 ));
             }

@@ -79,10 +79,12 @@ impl<C: CostModel + ?Sized> Driver<'_, C> {
         Some(m)
     }
 
+    /// The queue entry of `(a, b)` given `pa = surface.local(a)` (a caller queueing
+    /// all pairs of `a` converts it once).
     #[inline(always)]
-    fn entry_with(&self, a: u32, b: u32, endpoint_only: bool) -> Option<Item> {
+    fn entry_at(&self, a: u32, pa: [f64; 3], b: u32, endpoint_only: bool) -> Option<Item> {
         let m = self.moves(a, b, endpoint_only)?;
-        let c = self.cost.evaluate_cost(self.surface, a, b, &m)?;
+        let c = self.cost.evaluate_cost_near(self.surface, a, pa, b, &m)?;
         Some(
             Item {
                 a,
@@ -94,20 +96,9 @@ impl<C: CostModel + ?Sized> Driver<'_, C> {
         )
     }
 
-    /// [`Self::entry`] given `pa = surface.local(a)`.
     #[inline(always)]
-    fn entry_near(&self, a: u32, pa: [f64; 3], b: u32) -> Option<Item> {
-        let m = self.moves(a, b, false)?;
-        let c = self.cost.evaluate_cost_near(self.surface, a, pa, b, &m)?;
-        Some(
-            Item {
-                a,
-                b,
-                stamp: self.stamp(a, b, false),
-                cost_bits: 0,
-            }
-            .with_cost(c),
-        )
+    fn entry_with(&self, a: u32, b: u32, endpoint_only: bool) -> Option<Item> {
+        self.entry_at(a, self.surface.local(a), b, endpoint_only)
     }
 
     fn entry(&self, a: u32, b: u32) -> Option<Item> {
@@ -136,7 +127,7 @@ impl<C: CostModel + ?Sized> Driver<'_, C> {
             let pp = self.surface.local(p);
             for &q in &nb {
                 if q > p {
-                    if let Some(e) = self.entry_near(p, pp, q) {
+                    if let Some(e) = self.entry_at(p, pp, q, false) {
                         self.heap.push_unordered(e);
                     }
                 }
@@ -173,7 +164,7 @@ impl<C: CostModel + ?Sized> Driver<'_, C> {
         std::hint::black_box(s);
         let pv = self.surface.local(v);
         for &q in &nb {
-            if let Some(e) = self.entry_near(v, pv, q) {
+            if let Some(e) = self.entry_at(v, pv, q, false) {
                 self.heap.push(e);
             }
         }

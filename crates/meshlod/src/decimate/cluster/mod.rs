@@ -65,7 +65,11 @@
 //! UV or normal seam crosses a cell, the triangles on both sides share that one
 //! vertex's attributes, so a texture seam may smear by up to a cell: clustering is a
 //! sloppy method; use QEM for textured assets. Each output triangle keeps the group
-//! (material) of the first input triangle that produced it.
+//! (material) of the first input triangle that produced it. That source vertex is
+//! [`Clustered::vertex_source`]; an input without attributes has nothing to carry,
+//! so it is not computed unless [`ClusterOptions::vertex_sources`] asks for it (it
+//! costs marking the vertices triangles use and a pass over the input's vertices,
+//! about a tenth of a call at 10% of the triangles).
 //!
 //! # Target triangle count
 //! With a target instead of a cell size, ε is searched. Each probe is one pass: the
@@ -134,9 +138,10 @@
 //! time (square roots and divisions in loops of their own, so that they overlap
 //! instead of chaining one triangle after the next; bit for bit the planes of one
 //! triangle at a time, as the streaming path computes them), then adds the block's
-//! triangles in order (the sequential path also marks the used vertices there).
-//! The output's manifold counts chain its edge sides per smaller end and walk each
-//! vertex's fans along per-corner links (linear in the output, no sort). The
+//! triangles in order (the sequential path also marks the used vertices there, when
+//! the attribute sources are wanted). The output's manifold counts group the
+//! corners by vertex (a counting sort) and count each vertex's edges and fans
+//! locally (linear in the output). The
 //! sequential in-memory loops (the accumulation, the probes' cells and counts, the
 //! representatives, the attribute sources, the manifold counts) run as an AVX2 build
 //! when the CPU has it
@@ -236,6 +241,12 @@ pub struct ClusterOptions {
     pub cell_size: Option<Distance>,
     /// The representative. Default [`Representative::Quadric`].
     pub representative: Representative,
+    /// Compute [`Clustered::vertex_source`] (the input vertex whose attributes each
+    /// output vertex carries) also for an input without attributes. Default `false`:
+    /// then it is computed only when the input has attributes, since finding it
+    /// costs a pass over the input's vertices and marking the vertices triangles
+    /// use (about a tenth of a call at 10% of the triangles).
+    pub vertex_sources: bool,
     /// Weights of [`Representative::Weighted`]. Default [`ClusterWeights::Area`].
     pub weights: ClusterWeights,
     /// Relative tolerance on the triangle count when a target is given. Default 0.05.
@@ -247,6 +258,7 @@ impl Default for ClusterOptions {
         Self {
             cell_size: None,
             representative: Representative::Quadric,
+            vertex_sources: false,
             weights: ClusterWeights::Area,
             tolerance: 0.05,
         }
@@ -264,6 +276,12 @@ impl ClusterOptions {
     #[must_use]
     pub fn with_representative(mut self, r: Representative) -> Self {
         self.representative = r;
+        self
+    }
+    /// Sets [`Self::vertex_sources`].
+    #[must_use]
+    pub fn with_vertex_sources(mut self, on: bool) -> Self {
+        self.vertex_sources = on;
         self
     }
     /// Sets [`Self::weights`].
@@ -406,7 +424,8 @@ pub struct Clustered {
     /// The simplified mesh (compact, vertices in first-use order).
     pub mesh: Mesh,
     /// For every output vertex, the input vertex whose attributes it carries (empty
-    /// when streamed).
+    /// when streamed, and when the input has no attributes unless
+    /// [`ClusterOptions::vertex_sources`] asks for it).
     pub vertex_source: Vec<u32>,
     /// What happened.
     pub stats: ClusterStats,
@@ -1485,7 +1504,17 @@ impl Pipeline for InMemory<'_> {
         // Triangles go in blocks: the planes of a block are computed in one tight loop
         // (square roots and divisions overlap), then added to the cells in order.
         // The vertices some triangle uses (for the attributes below).
-        let mut used = vec![false; mesh.positions.len()];
+        // Only an input with attributes (or a caller asking for the map) needs the
+        // source vertices, and only they need the used marks.
+        let want_sources = self.options.vertex_sources || !mesh.attributes.is_empty();
+        let mut used = vec![
+            false;
+            if want_sources {
+                mesh.positions.len()
+            } else {
+                0
+            }
+        ];
         let accumulate =
             |part: &mut [Acc], start: u32, used: Option<&mut [bool]>, spans: Option<&[Span]>| {
                 let factors = if how == Representative::Quadric {
@@ -1524,11 +1553,15 @@ impl Pipeline for InMemory<'_> {
                 spans: None,
             };
             let (accs, used) = (&mut accs[..], &mut used[..]);
-            match how {
-                Representative::Quadric => {
-                    crate::isa::dispatch!(a.run_all::<true>(accs, Some(&mut *used)))
+            match (how, want_sources) {
+                (Representative::Quadric, true) => {
+                    crate::isa::dispatch!(a.run_all::<true, true>(accs, &mut *used))
                 }
-                _ => crate::isa::dispatch!(a.run_all::<false>(accs, Some(&mut *used))),
+                (Representative::Quadric, false) => {
+                    crate::isa::dispatch!(a.run_all::<true, false>(accs, &mut *used))
+                }
+                (_, true) => crate::isa::dispatch!(a.run_all::<false, true>(accs, &mut *used)),
+                (_, false) => crate::isa::dispatch!(a.run_all::<false, false>(accs, &mut *used)),
             }
         } else {
             // Workers own contiguous ranges of cells. The span of cell ids of every
@@ -1545,7 +1578,9 @@ impl Pipeline for InMemory<'_> {
                         for &v in tri {
                             let c = vcell[v as usize];
                             span = (span.0.min(c), span.1.max(c));
-                            marks[v as usize].store(true, Ordering::Relaxed);
+                            if want_sources {
+                                marks[v as usize].store(true, Ordering::Relaxed);
+                            }
                         }
                     }
                     span
@@ -1586,6 +1621,9 @@ impl Pipeline for InMemory<'_> {
         let per = nv.div_ceil(parts);
         let topo = || edge_counts(&out.mesh.triangles, n_out);
         let sources = || -> Vec<Vec<(f64, u32)>> {
+            if !want_sources {
+                return vec![Vec::new()];
+            }
             if parts == 1 {
                 // One range: no pool.
                 let (used, vcell, points) = (&used[..], &vcell[..], &mesh.positions[..]);
@@ -1618,7 +1656,9 @@ impl Pipeline for InMemory<'_> {
             }
         }
         let source: Vec<u32> = best.iter().map(|b| b.1).collect();
-        out.mesh.attributes = mesh.attributes.gather(&source);
+        if want_sources {
+            out.mesh.attributes = mesh.attributes.gather(&source);
+        }
         out.stats.working_bytes += vcell.len() * 4 + self.keys.len() * 8 + self.small.len() * 4;
         Clustered {
             mesh: out.mesh,
@@ -1714,7 +1754,10 @@ impl Accumulation<'_> {
         let n = mesh.triangles.len();
         // One worker owning every cell (the sequential path) visits every triangle.
         if self.spans.is_none() && start == 0 {
-            return self.run_all::<QUADRIC>(part, used);
+            return match used {
+                Some(u) => self.run_all::<QUADRIC, true>(part, u),
+                None => self.run_all::<QUADRIC, false>(part, &mut []),
+            };
         }
         if let Some(u) = used {
             for &v in mesh.triangles.as_flattened() {
@@ -1758,13 +1801,13 @@ impl Accumulation<'_> {
     /// first, then each of its triangles, in order, has its cells gathered, its
     /// vertices marked in `used` and its contributions added.
     #[inline(always)]
-    fn run_all<const QUADRIC: bool>(&self, accs: &mut [Acc], used: Option<&mut [bool]>) {
+    fn run_all<const QUADRIC: bool, const MARK: bool>(&self, accs: &mut [Acc], used: &mut [bool]) {
         let mesh = self.mesh;
         let nv = mesh.positions.len();
         // One length for the three per-vertex arrays: one bounds check per index.
         let vcell = &self.vcell[..nv];
         let positions = &mesh.positions[..nv];
-        let mut used = used.map(|u| &mut u[..nv]);
+        let used = if MARK { &mut used[..nv] } else { used };
         let mut planes = Block::new();
         for block in mesh.triangles.chunks(BLOCK) {
             // The square roots and divisions of a block in loops of their own, so
@@ -1777,9 +1820,9 @@ impl Accumulation<'_> {
             );
             for (i, tri) in block.iter().enumerate() {
                 let c = tri.map(|v| vcell[v as usize]);
-                if let Some(u) = used.as_deref_mut() {
+                if MARK {
                     for &v in tri {
-                        u[v as usize] = true;
+                        used[v as usize] = true;
                     }
                 }
                 let plane = &planes.plane(i);
@@ -2149,14 +2192,17 @@ impl EdgeCounts {
 /// Boundary and non-manifold edges and non-manifold vertices of `triangles` over
 /// `vertices` points, as [`crate::mesh::stats::TopologyStats`] counts them, for
 /// triangles with three distinct points and no two over the same points (the
-/// output's invariants). Linear in the output size: the `3t` edge sides are chained
-/// into one list per smaller end (as they come: no sort), each list is grouped by
-/// the other end (a table indexed by that end), and the sides of one edge give its
-/// valence. A vertex's fans are the connected components of its triangle corners,
-/// two corners joined when their triangles share an edge at the vertex. Off the
-/// non-manifold edges (whose ends are non-manifold anyway) a corner is joined to at
-/// most two others, one across each of its two sides, so the components are paths
-/// and cycles, counted by walking each once.
+/// output's invariants). Linear in the output size: the `3t` corners are grouped by
+/// vertex (a counting sort), each with its triangle's other two points; scanning
+/// vertex `v`'s group, the number of its corners whose triangle holds `x` is the
+/// number of sides of edge `vx` (a table indexed by `x`, stamped per vertex), so
+/// every vertex sees its own edges' valences without a global edge table, and each
+/// edge is counted at its smaller end. A vertex's fans are the connected components
+/// of its corners, two corners joined when their triangles share an edge at the
+/// vertex with exactly two sides (a union–find over the group); a vertex on a
+/// non-manifold edge is non-manifold whatever its fans. Everything a vertex needs
+/// lies in its own group, so the work stays in cache on large outputs, where the
+/// earlier per-corner link walk waited on memory.
 fn edge_counts(triangles: &[[u32; 3]], vertices: usize) -> EdgeCounts {
     crate::isa::dispatch!(edge_counts_impl(triangles, vertices))
 }
@@ -2164,128 +2210,114 @@ fn edge_counts(triangles: &[[u32; 3]], vertices: usize) -> EdgeCounts {
 /// [`edge_counts`], inlined into each build.
 #[inline(always)]
 fn edge_counts_impl(triangles: &[[u32; 3]], vertices: usize) -> EdgeCounts {
-    /// No side (a list's end) or no link (a boundary or non-manifold side).
-    const NONE: u32 = u32::MAX;
-    /// A corner already walked.
-    const DONE: u32 = u32::MAX - 1;
-    /// Side `3t + k` of triangle `t` runs from its corner `3t + k` to the next one.
-    #[derive(Clone, Copy)]
-    struct Side {
-        /// The larger end.
-        b: u32,
-        /// The corners at the smaller and at the larger end.
-        ca: u32,
-        cb: u32,
-        /// The next side of the smaller end's list.
-        next: u32,
-        /// Corner `3t + k`'s links: across side `3t + k` and across the side
-        /// ending at it (the corner index doubles as the side index).
-        link: [u32; 2],
-    }
-    // The lists: `head[a]` is the last side whose smaller end is `a`. (`3t` stays
-    // below 2³²: the corners are `u32` and a mesh has fewer than 2³²/3 triangles in
+    let flat = triangles.as_flattened();
+    // The corners grouped by vertex (a counting sort): `start[v] .. start[v + 1]`
+    // holds, per corner of `v`, the triangle's other two points. (`3t` stays below
+    // 2³²: the corners are `u32` and a mesh has fewer than 2³²/3 triangles in
     // memory.)
-    let mut head = vec![NONE; vertices];
-    let heads = &mut head[..];
-    let mut sides: Vec<[Side; 3]> = triangles
-        .iter()
-        .enumerate()
-        .map(move |(t, tri)| {
-            let c = 3 * t as u32;
-            let mut side = |k: usize, k1: usize| {
-                let (a, b) = (tri[k], tri[k1]);
-                let (ck, ck1) = (c + k as u32, c + k1 as u32);
-                // Selects, not a branch (the winding decides, as good as random).
-                let swap = a >= b;
-                let (small, b) = (a.min(b), a.max(b));
-                let (ca, cb) = if swap { (ck1, ck) } else { (ck, ck1) };
-                let h = &mut heads[small as usize];
-                let next = *h;
-                *h = ck;
-                Side {
-                    b,
-                    ca,
-                    cb,
-                    next,
-                    link: [NONE; 2],
+    let mut start = vec![0u32; vertices + 1];
+    let ends = &mut start[..vertices];
+    for &v in flat {
+        if let Some(e) = ends.get_mut(v as usize) {
+            *e += 1;
+        }
+    }
+    let mut sum = 0u32;
+    for e in ends.iter_mut() {
+        sum += *e;
+        *e = sum;
+    }
+    start[vertices] = sum;
+    // Filled backwards from each group's end, so `start[v]` ends at its beginning.
+    let mut others = vec![[0u32; 2]; sum as usize];
+    let ends = &mut start[..vertices];
+    for tri in triangles {
+        for k in 0..3 {
+            if let Some(e) = ends.get_mut(tri[k] as usize) {
+                *e -= 1;
+                if let Some(o) = others.get_mut(*e as usize) {
+                    *o = [tri[(k + 1) % 3], tri[(k + 2) % 3]];
                 }
-            };
-            [side(0, 1), side(1, 2), side(2, 0)]
-        })
-        .collect();
-    let sides = sides.as_flattened_mut();
+            }
+        }
+    }
     let mut counts = EdgeCounts::default();
-    // Per vertex: its fans plus 2 when it is on a non-manifold edge, so that it is
-    // non-manifold exactly when this is at least 2.
-    let mut fans = vec![0u32; vertices];
-    // Per larger end `b` while the list of `a` is scanned: the list that last saw
-    // it (`a + 1`; 0 = none), the edge's first side and its number of sides. The
-    // counts follow the sides as they come (one side: boundary; a second: not; a
-    // third: non-manifold), and the second side of an edge is linked to the first
-    // at both ends.
+    // Per other point `x` while vertex `v`'s corners are scanned: `v + 1` when `x`
+    // was last seen there, the sides over edge `vx` so far and the corner that
+    // brought the first.
     let mut seen = vec![[0u32; 3]; vertices];
-    for (a, &first) in head.iter().enumerate() {
-        let stamp = a as u32 + 1;
-        let mut s = first;
-        while let Some(&Side {
-            b, ca, cb, next, ..
-        }) = sides.get(s as usize)
-        {
-            let e = &mut seen[b as usize];
-            if e[0] != stamp {
-                *e = [stamp, s, 1];
-                counts.boundary_edges += 1;
-            } else {
-                e[2] += 1;
-                match e[2] {
+    // The fans of `v`: a union–find over its corners (a local index), two corners
+    // joined when their triangles share an edge at `v` that has exactly two sides.
+    let mut parent: Vec<u32> = Vec::new();
+    for v in 0..vertices {
+        let (lo, hi) = (start[v] as usize, start[v + 1] as usize);
+        let Some(own) = others.get(lo..hi) else {
+            continue;
+        };
+        let stamp = v as u32 + 1;
+        parent.clear();
+        parent.extend(0..own.len() as u32);
+        let mut fans = own.len();
+        let mut non_manifold = false;
+        for (i, pair) in own.iter().enumerate() {
+            for &x in pair {
+                let Some(e) = seen.get_mut(x as usize) else {
+                    continue;
+                };
+                // Each edge is counted at its smaller end; its sides are seen at both.
+                let ours = u32::from(x > v as u32) as usize;
+                if e[0] != stamp {
+                    *e = [stamp, 1, i as u32];
+                    counts.boundary_edges += ours;
+                    continue;
+                }
+                e[1] += 1;
+                match e[1] {
                     2 => {
-                        counts.boundary_edges -= 1;
-                        let f = e[1];
-                        let Side { ca: fa, cb: fb, .. } = sides[f as usize];
-                        // A corner's link across side `x` is its slot 0 when it is
-                        // corner `x` (the side starts there), else its slot 1.
-                        sides[ca as usize].link[usize::from(ca != s)] = fa;
-                        sides[cb as usize].link[usize::from(cb != s)] = fb;
-                        sides[fa as usize].link[usize::from(fa != f)] = ca;
-                        sides[fb as usize].link[usize::from(fb != f)] = cb;
+                        counts.boundary_edges -= ours;
+                        if unite(&mut parent, e[2], i as u32) {
+                            fans -= 1;
+                        }
                     }
                     3 => {
-                        counts.non_manifold_edges += 1;
-                        fans[a] += 2;
-                        fans[b as usize] += 2;
+                        counts.non_manifold_edges += ours;
+                        non_manifold = true;
                     }
                     _ => {}
                 }
             }
-            s = next;
         }
+        // On a non-manifold edge the fans above are not meaningful, and not needed.
+        counts.non_manifold_vertices += usize::from(non_manifold || fans > 1);
     }
-    // Each unwalked corner starts a new fan of its vertex: walk it both ways (a
-    // path ends at `NONE`, a cycle back at its start), marking the corners `DONE`.
-    let flat = triangles.as_flattened();
-    for c in 0..sides.len().min(flat.len()) {
-        let [l0, l1] = sides[c].link;
-        if l0 == DONE {
-            continue;
-        }
-        sides[c].link = [DONE; 2];
-        fans[flat[c] as usize] += 1;
-        for mut x in [l0, l1] {
-            let mut prev = c as u32;
-            while let Some(side) = sides.get_mut(x as usize) {
-                let [y0, y1] = side.link;
-                if y0 == DONE {
-                    break;
-                }
-                side.link = [DONE; 2];
-                let next = if y0 == prev { y1 } else { y0 };
-                prev = x;
-                x = next;
-            }
-        }
-    }
-    counts.non_manifold_vertices = fans.iter().filter(|&&f| f > 1).count();
     counts
+}
+
+/// Joins the sets of `a` and `b` in the union–find `parent` (path halving); false
+/// when they were one set already.
+#[inline(always)]
+fn unite(parent: &mut [u32], a: u32, b: u32) -> bool {
+    let mut root = |mut x: u32| {
+        while let Some(&p) = parent.get(x as usize) {
+            if p == x {
+                break;
+            }
+            let gp = parent.get(p as usize).copied().unwrap_or(p);
+            if let Some(px) = parent.get_mut(x as usize) {
+                *px = gp;
+            }
+            x = gp;
+        }
+        x
+    };
+    let (ra, rb) = (root(a), root(b));
+    if ra == rb {
+        return false;
+    }
+    if let Some(p) = parent.get_mut(ra.max(rb) as usize) {
+        *p = ra.min(rb);
+    }
+    true
 }
 
 #[cfg(test)]

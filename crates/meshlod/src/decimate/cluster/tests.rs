@@ -63,9 +63,11 @@ fn representatives_stay_in_their_cells() {
     ] {
         let o = ClusterOptions::default()
             .with_cell_size(Distance::Relative(0.03))
-            .with_representative(how);
+            .with_representative(how)
+            .with_vertex_sources(true);
         let c = cluster_mesh(&m, None, &o).unwrap();
         assert_clean(&c.mesh);
+        assert_eq!(c.vertex_source.len(), c.mesh.positions.len());
         let e = c.stats.cell_size;
         let (lo, _) = m.bounding_box(false).unwrap();
         for (o, &src) in c.vertex_source.iter().enumerate() {
@@ -166,6 +168,8 @@ fn groups_and_attributes_are_carried() {
     let g = c.mesh.groups.as_ref().unwrap();
     assert!(g.contains(&0) && g.contains(&1));
     let uv = c.mesh.attributes.uv0.as_ref().unwrap();
+    // An input with attributes always gets its sources.
+    assert_eq!(c.vertex_source.len(), c.mesh.positions.len());
     for (o, &src) in c.vertex_source.iter().enumerate() {
         assert_eq!(uv[o], m.attributes.uv0.as_ref().unwrap()[src as usize]);
     }
@@ -250,12 +254,13 @@ fn parallel_accumulation_matches_sequential_on_large_input() {
     // Unreferenced vertices at the positions of used ones: never a source.
     let extra: Vec<[f32; 3]> = m.positions.iter().step_by(997).copied().collect();
     m.positions.extend(extra);
+    let o = ClusterOptions::default().with_vertex_sources(true);
     let run = |threads: usize| {
         rayon::ThreadPoolBuilder::new()
             .num_threads(threads)
             .build()
             .unwrap()
-            .install(|| cluster(&m, 20_000))
+            .install(|| cluster_mesh(&m, Some(20_000), &o).unwrap())
     };
     let a = run(1);
     let b = run(2);
@@ -266,7 +271,33 @@ fn parallel_accumulation_matches_sequential_on_large_input() {
         assert_eq!(a.vertex_source, other.vertex_source);
         assert_eq!(a.stats, other.stats);
     }
+    assert_eq!(a.vertex_source.len(), a.mesh.positions.len());
     assert!(a.vertex_source.iter().all(|&v| (v as usize) < referenced));
+}
+
+/// Without attributes the sources are only found on request, and asking changes
+/// nothing else: the same mesh and statistics, one in-cell source per vertex.
+#[test]
+fn vertex_sources_only_on_request_without_attributes() {
+    let m = generate::torus(120, 48, 1.0, 0.3);
+    assert!(m.attributes.is_empty());
+    for threads in [1, 2] {
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap();
+        let run = |o: ClusterOptions| pool.install(|| cluster_mesh(&m, Some(1000), &o).unwrap());
+        let plain = run(ClusterOptions::default());
+        let asked = run(ClusterOptions::default().with_vertex_sources(true));
+        assert!(plain.vertex_source.is_empty());
+        assert_eq!(asked.vertex_source.len(), asked.mesh.positions.len());
+        assert!(asked
+            .vertex_source
+            .iter()
+            .all(|&v| (v as usize) < m.positions.len()));
+        assert_eq!(plain.mesh, asked.mesh);
+        assert_eq!(plain.stats, asked.stats);
+    }
 }
 
 /// The streaming path on a file gives the mesh the in-memory path gives on the same

@@ -604,7 +604,10 @@ pub struct Simplified {
     /// What happened.
     pub report: Report,
     /// Output vertex `i` descends from input vertex `vertex_source[i]` (its
-    /// attributes were interpolated if its position moved).
+    /// attributes were interpolated if its position moved). With
+    /// [`Method::Cluster`] it is the input vertex whose attributes the output vertex
+    /// carries, and empty when streamed or when the input has no attributes (unless
+    /// [`crate::decimate::cluster::ClusterOptions::vertex_sources`] asks for it).
     pub vertex_source: Vec<u32>,
 }
 

@@ -1503,18 +1503,14 @@ impl Pipeline for InMemory<'_> {
         // every cell adds its contributions in input order (as the streaming path).
         // Triangles go in blocks: the planes of a block are computed in one tight loop
         // (square roots and divisions overlap), then added to the cells in order.
-        // The vertices some triangle uses (for the attributes below).
-        // Only an input with attributes (or a caller asking for the map) needs the
-        // source vertices, and only they need the used marks.
+        // The vertices some triangle uses, for the attribute sources below: only an
+        // input with attributes (or a caller asking for the map) needs them.
         let want_sources = self.options.vertex_sources || !mesh.attributes.is_empty();
-        let mut used = vec![
-            false;
-            if want_sources {
-                mesh.positions.len()
-            } else {
-                0
-            }
-        ];
+        let mut used = if want_sources {
+            vec![false; mesh.positions.len()]
+        } else {
+            Vec::new()
+        };
         let accumulate =
             |part: &mut [Acc], start: u32, used: Option<&mut [bool]>, spans: Option<&[Span]>| {
                 let factors = if how == Representative::Quadric {

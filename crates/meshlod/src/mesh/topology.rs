@@ -243,6 +243,12 @@ impl UnionFind {
         }
     }
 
+    /// Makes it `n` singleton sets again, reusing its storage.
+    pub fn reset(&mut self, n: usize) {
+        self.parent.clear();
+        self.parent.extend(0..n as u32);
+    }
+
     /// Representative of `x`'s set.
     pub fn find(&mut self, mut x: u32) -> u32 {
         while self.parent[x as usize] != x {

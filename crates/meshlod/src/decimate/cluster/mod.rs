@@ -178,6 +178,7 @@ pub mod grid;
 
 use crate::io::stream;
 use crate::io::IoError;
+use crate::mesh::topology::UnionFind;
 use crate::mesh::{Mesh, Weld};
 use crate::simplify::Distance;
 use accumulate::{
@@ -2244,15 +2245,14 @@ fn edge_counts_impl(triangles: &[[u32; 3]], vertices: usize) -> EdgeCounts {
     let mut seen = vec![[0u32; 3]; vertices];
     // The fans of `v`: a union–find over its corners (a local index), two corners
     // joined when their triangles share an edge at `v` that has exactly two sides.
-    let mut parent: Vec<u32> = Vec::new();
+    let mut fans_of = UnionFind::new(0);
     for v in 0..vertices {
         let (lo, hi) = (start[v] as usize, start[v + 1] as usize);
         let Some(own) = others.get(lo..hi) else {
             continue;
         };
         let stamp = v as u32 + 1;
-        parent.clear();
-        parent.extend(0..own.len() as u32);
+        fans_of.reset(own.len());
         let mut fans = own.len();
         let mut non_manifold = false;
         for (i, pair) in own.iter().enumerate() {
@@ -2271,7 +2271,7 @@ fn edge_counts_impl(triangles: &[[u32; 3]], vertices: usize) -> EdgeCounts {
                 match e[1] {
                     2 => {
                         counts.boundary_edges -= ours;
-                        if unite(&mut parent, e[2], i as u32) {
+                        if fans_of.union(e[2], i as u32) {
                             fans -= 1;
                         }
                     }
@@ -2287,33 +2287,6 @@ fn edge_counts_impl(triangles: &[[u32; 3]], vertices: usize) -> EdgeCounts {
         counts.non_manifold_vertices += usize::from(non_manifold || fans > 1);
     }
     counts
-}
-
-/// Joins the sets of `a` and `b` in the union–find `parent` (path halving); false
-/// when they were one set already.
-#[inline(always)]
-fn unite(parent: &mut [u32], a: u32, b: u32) -> bool {
-    let mut root = |mut x: u32| {
-        while let Some(&p) = parent.get(x as usize) {
-            if p == x {
-                break;
-            }
-            let gp = parent.get(p as usize).copied().unwrap_or(p);
-            if let Some(px) = parent.get_mut(x as usize) {
-                *px = gp;
-            }
-            x = gp;
-        }
-        x
-    };
-    let (ra, rb) = (root(a), root(b));
-    if ra == rb {
-        return false;
-    }
-    if let Some(p) = parent.get_mut(ra.max(rb) as usize) {
-        *p = ra.min(rb);
-    }
-    true
 }
 
 #[cfg(test)]

@@ -1512,26 +1512,25 @@ impl Pipeline for InMemory<'_> {
         } else {
             Vec::new()
         };
-        let accumulate =
-            |part: &mut [Acc], start: u32, used: Option<&mut [bool]>, spans: Option<&[Span]>| {
-                let factors = if how == Representative::Quadric {
-                    None
-                } else {
-                    factors
-                };
-                let a = Accumulation {
-                    mesh,
-                    vcell: vcell_ref,
-                    origin: grid.origin,
-                    how,
-                    factors,
-                    spans,
-                };
-                match how {
-                    Representative::Quadric => a.run::<true>(part, start, used),
-                    _ => a.run::<false>(part, start, used),
-                }
+        let accumulate = |part: &mut [Acc], start: u32, spans: Option<&[Span]>| {
+            let factors = if how == Representative::Quadric {
+                None
+            } else {
+                factors
             };
+            let a = Accumulation {
+                mesh,
+                vcell: vcell_ref,
+                origin: grid.origin,
+                how,
+                factors,
+                spans,
+            };
+            match how {
+                Representative::Quadric => a.run::<true>(part, start),
+                _ => a.run::<false>(part, start),
+            }
+        };
         let shards = rayon::current_num_threads().clamp(1, 64);
         let n = mesh.triangles.len();
         if shards == 1 || n < PAR_ACCUMULATE {
@@ -1586,7 +1585,7 @@ impl Pipeline for InMemory<'_> {
             let per = cells.div_ceil(shards).max(1);
             accs.par_chunks_mut(per)
                 .enumerate()
-                .for_each(|(s, part)| accumulate(part, (s * per) as u32, None, Some(&spans)));
+                .for_each(|(s, part)| accumulate(part, (s * per) as u32, Some(&spans)));
             for (u, m) in used.iter_mut().zip(marks) {
                 *u = m.into_inner();
             }
@@ -1738,9 +1737,9 @@ struct Accumulation<'a> {
 impl Accumulation<'_> {
     /// Adds every triangle of the mesh (in order) to the cells `start .. start +
     /// part.len()` it touches. Triangles whose cells are all outside the range are
-    /// skipped before their planes are computed. With `used`, marks there every
-    /// vertex a triangle uses.
-    fn run<const QUADRIC: bool>(&self, part: &mut [Acc], start: u32, used: Option<&mut [bool]>) {
+    /// skipped before their planes are computed. (The parallel workers' pass; one
+    /// worker owning every cell runs [`Self::run_all`].)
+    fn run<const QUADRIC: bool>(&self, part: &mut [Acc], start: u32) {
         let mesh = self.mesh;
         let vcell = self.vcell;
         let len = part.len() as u32;
@@ -1749,18 +1748,6 @@ impl Accumulation<'_> {
         let mut cells_of = [[0u32; 3]; BLOCK];
         let mut planes = Block::new();
         let n = mesh.triangles.len();
-        // One worker owning every cell (the sequential path) visits every triangle.
-        if self.spans.is_none() && start == 0 {
-            return match used {
-                Some(u) => self.run_all::<QUADRIC, true>(part, u),
-                None => self.run_all::<QUADRIC, false>(part, &mut []),
-            };
-        }
-        if let Some(u) = used {
-            for &v in mesh.triangles.as_flattened() {
-                u[v as usize] = true;
-            }
-        }
         for (b, first) in (0..n).step_by(BLOCK).enumerate() {
             if let Some(spans) = self.spans {
                 let (lo, hi) = spans[b];
@@ -1796,7 +1783,8 @@ impl Accumulation<'_> {
 
     /// [`Self::run`] for one worker owning every cell: a block's planes are prepared
     /// first, then each of its triangles, in order, has its cells gathered, its
-    /// vertices marked in `used` and its contributions added.
+    /// vertices marked in `used` (when `MARK`; `used` is then one flag per vertex)
+    /// and its contributions added.
     #[inline(always)]
     fn run_all<const QUADRIC: bool, const MARK: bool>(&self, accs: &mut [Acc], used: &mut [bool]) {
         let mesh = self.mesh;

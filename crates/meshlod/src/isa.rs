@@ -86,6 +86,23 @@ pub(crate) fn run_avx2<R>(f: impl FnOnce() -> R) -> Option<R> {
     None
 }
 
+/// Asks the CPU to start loading the cache line holding `*r` (a hint: no
+/// architectural effect, nothing waits for it). A no-op off x86-64.
+#[inline(always)]
+pub(crate) fn prefetch<T>(r: &T) {
+    #[cfg(target_arch = "x86_64")]
+    // SAFETY: a prefetch never faults and reads nothing architecturally (Intel SDM
+    // and AMD APM, PREFETCHh); `r` is a valid reference anyway. SSE, which the
+    // intrinsic requires, is part of the x86-64 baseline.
+    unsafe {
+        std::arch::x86_64::_mm_prefetch::<{ std::arch::x86_64::_MM_HINT_T0 }>(
+            std::ptr::from_ref(r).cast::<i8>(),
+        );
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    let _ = r;
+}
+
 /// Evaluates the expression as its AVX2 build when the CPU has the features, else
 /// as the baseline build (see the module docs; the result is the same either way).
 /// The expression is written out twice, so each build has its own copy: kernels

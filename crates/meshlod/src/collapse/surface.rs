@@ -845,35 +845,21 @@ impl Surface {
         std::hint::black_box(s);
     }
 
-    /// Reads the triangles around `u` and `v` and their corners' positions in two
-    /// passes of independent loads (what [`Self::check`] walks next), so that their
-    /// cache misses overlap. A hint: nothing changes.
-    pub fn prefetch_pair(&self, u: u32, v: u32) {
-        crate::isa::dispatch!(self.prefetch_pair_impl(u, v));
-    }
-
+    /// Hardware prefetches of the positions of the corners of the triangles around
+    /// `u` and `v` (what [`Self::check`] reads next). The triangles themselves
+    /// should be in cache already ([`Self::prefetch_triangles_hint`] one step
+    /// earlier); nothing waits for the positions. A hint: nothing changes.
     #[inline(always)]
-    fn prefetch_pair_impl(&self, u: u32, v: u32) {
-        if u as usize >= self.pos.len() || v as usize >= self.pos.len() {
-            return;
-        }
-        // First the triangles (independent loads), then their corners' positions
-        // (the triangles are in cache by then).
-        let mut s = 0u32;
+    pub fn prefetch_pair(&self, u: u32, v: u32) {
         for p in [u, v] {
-            for &t in self.fan(p) {
-                s = s.wrapping_add(self.tri[t as usize][0]);
-            }
-        }
-        let mut x = 0u32;
-        for p in [u, v] {
-            for &t in self.fan(p) {
-                for c in self.tri[t as usize] {
-                    x = x.wrapping_add(self.pos[c as usize][0].to_bits());
+            if (p as usize) < self.fan_slot.len() {
+                for &t in self.fan(p) {
+                    for c in self.tri[t as usize] {
+                        crate::isa::prefetch(&self.pos[c as usize]);
+                    }
                 }
             }
         }
-        std::hint::black_box((s, x));
     }
 
     /// Reads the per-point state a pop of pair `(a, b)` starts with (a hint).
@@ -890,6 +876,49 @@ impl Surface {
             }
         }
         std::hint::black_box(s);
+    }
+
+    /// Hardware prefetches of the per-point state an evaluation of a pair with `p`
+    /// reads (kind, fan record, position): the first stage of loading a pair's
+    /// neighbourhood ahead of its pop. A hint: nothing waits for it.
+    #[inline(always)]
+    pub fn prefetch_point_hint(&self, p: u32) {
+        let p = p as usize;
+        if p < self.pos.len() {
+            crate::isa::prefetch(&self.fan_slot[p]);
+            crate::isa::prefetch(&self.kind[p]);
+            crate::isa::prefetch(&self.pos[p]);
+        }
+    }
+
+    /// Second stage: with the fan records of `a` and `b` loaded by
+    /// [`Self::prefetch_point_hint`] a while ago, hardware prefetches of the first
+    /// and last lines of their fans. A hint.
+    #[inline(always)]
+    pub fn prefetch_fans_hint(&self, a: u32, b: u32) {
+        for p in [a, b] {
+            if let Some(slot) = self.fan_slot.get(p as usize) {
+                let (s, l) = (slot.start as usize, slot.len as usize);
+                if l > 0 && s + l <= self.fans.len() {
+                    crate::isa::prefetch(&self.fans[s]);
+                    crate::isa::prefetch(&self.fans[s + l - 1]);
+                }
+            }
+        }
+    }
+
+    /// Third stage: with the fans of `a` and `b` loaded by
+    /// [`Self::prefetch_fans_hint`], hardware prefetches of their triangles (the
+    /// fourth, their corners' positions, is [`Self::prefetch_pair`]). A hint.
+    #[inline(always)]
+    pub fn prefetch_triangles_hint(&self, a: u32, b: u32) {
+        for p in [a, b] {
+            if (p as usize) < self.fan_slot.len() {
+                for &t in self.fan(p) {
+                    crate::isa::prefetch(&self.tri[t as usize]);
+                }
+            }
+        }
     }
 
     /// Replaces `out` with the distinct neighbours of `p`, in fan order.
@@ -1142,6 +1171,11 @@ impl Surface {
                 .any(|&a| a != DEAD && self.fan_slot[a as usize].len <= 1)
         {
             return Err(Reject::Link);
+        }
+        // The collapse removes a dying triangle from each apex's fan: start
+        // loading those fans now (a hint; their records were just read).
+        for &a in opp.iter().take(dying) {
+            crate::isa::prefetch(&self.fans[self.fan_slot[a as usize].start as usize]);
         }
         // An apex keeps an edge to the survivor (else a non-manifold apex joining
         // two parts would lose this side, splitting a component): some other

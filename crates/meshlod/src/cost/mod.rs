@@ -87,6 +87,13 @@ pub trait CostModel {
         let _ = points;
     }
 
+    /// A hint that `point`'s state will be read soon: start loading it without
+    /// waiting for it (a hardware prefetch). Must not change any result. Default:
+    /// nothing.
+    fn prefetch_hint(&self, point: u32) {
+        let _ = point;
+    }
+
     /// Updates the state after `record` was performed (`surface` is already updated).
     fn collapsed(&mut self, surface: &Surface, record: &CollapseRecord);
 

@@ -325,6 +325,15 @@ impl CostModel for Qem {
         std::hint::black_box(s);
     }
 
+    #[inline(always)]
+    fn prefetch_hint(&self, point: u32) {
+        if let Some(q) = self.quadrics.get(point as usize) {
+            // 88 bytes: the first and the last byte cover every line it spans.
+            crate::isa::prefetch(&q.m[0]);
+            crate::isa::prefetch(&q.weight);
+        }
+    }
+
     fn confirm(&self, surface: &Surface, candidate: &Candidate) -> f64 {
         let lambda = self.options.displacement_guard;
         if lambda <= 0.0 {

@@ -183,6 +183,19 @@ impl<C: CostModel + ?Sized> Driver<'_, C> {
         self.scratch = nb;
     }
 
+    /// Hardware prefetches of what evaluating a pair of these points reads first
+    /// (versions, the cost model's state, the surface's point records). A hint.
+    #[inline(always)]
+    fn prefetch_points<const N: usize>(&self, points: [u32; N]) {
+        for x in points {
+            if let Some(v) = self.version.get(x as usize) {
+                crate::isa::prefetch(v);
+            }
+            self.cost.prefetch_hint(x);
+            self.surface.prefetch_point_hint(x);
+        }
+    }
+
     #[inline(always)]
     fn valid(&self, e: &Item) -> bool {
         let (a, b) = (e.a, e.b);
@@ -321,6 +334,15 @@ fn run_impl<C: CostModel + ?Sized>(
             }
             break;
         };
+        // Loading the next pop's neighbourhood is a chain of dependent cache misses
+        // (point records, fans, triangles, positions) that would stall the loop at
+        // every pop on a mesh larger than the cache. The next pop is most likely
+        // the new top: its stages are started one per step of this iteration, as
+        // hardware prefetches, so each has arrived when the next one needs it.
+        // First stage: its points' records.
+        if let Some(&n) = d.heap.peek_band() {
+            d.prefetch_points([n.a, n.b]);
+        }
         if !d.valid(&e) {
             continue;
         }
@@ -338,7 +360,7 @@ fn run_impl<C: CostModel + ?Sized>(
             continue;
         }
         let p = c.position.map(|x| x as f32);
-        // Load both fans and their corners before the check walks them.
+        // Fourth stage: the corners' positions, before the check walks them.
         d.surface.prefetch_pair(c.removed, c.kept);
         if let Err(r) = d
             .surface
@@ -367,6 +389,16 @@ fn run_impl<C: CostModel + ?Sized>(
                 Reject::Pair => rj.pair += 1,
             }
             continue;
+        }
+        // Second stage for the next pop: its fans.
+        if let Some(&n) = d.heap.peek_band() {
+            d.surface.prefetch_fans_hint(n.a, n.b);
+        }
+        // The points whose pairs are re-queued after this collapse (the corners of
+        // the triangles that change): start loading their state now, so the loads
+        // overlap the filters and the collapse instead of stalling the re-queue.
+        for ch in &preview.changed {
+            d.prefetch_points(d.surface.triangle(ch.triangle));
         }
         let mut vetoed = false;
         for f in d.filters {
@@ -426,8 +458,11 @@ fn run_impl<C: CostModel + ?Sized>(
             }
         }
         d.push_around(v);
-        // The next pop is most likely the current top: start loading its state.
+        // Third stage for the next pop: its triangles (the fourth, their corners,
+        // is `prefetch_pair` after the pop). Then its points' records again, now
+        // waited for: the top may have changed with this collapse's re-queues.
         if let Some(&n) = d.heap.peek_band() {
+            d.surface.prefetch_triangles_hint(n.a, n.b);
             d.surface.prefetch_start(n.a, n.b);
             d.cost.prefetch(&[n.a, n.b]);
             std::hint::black_box(d.version[n.a as usize].wrapping_add(d.version[n.b as usize]));

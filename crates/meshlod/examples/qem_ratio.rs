@@ -86,9 +86,12 @@ fn main() {
         return;
     }
     let args: Vec<String> = std::env::args().skip(1).collect();
-    let reps: usize = args.first().and_then(|a| a.parse().ok()).unwrap_or(11);
-    let names: Vec<String> = if args.len() > 1 {
-        args[1..].to_vec()
+    // A leading number is REPS; the rest name meshes.
+    let first: Option<usize> = args.first().and_then(|a| a.parse().ok());
+    let reps = first.unwrap_or(11).max(1);
+    let rest = &args[usize::from(first.is_some())..];
+    let names: Vec<String> = if !rest.is_empty() {
+        rest.to_vec()
     } else {
         ["bunny", "lucy", "turbine"].map(String::from).to_vec()
     };
@@ -116,11 +119,12 @@ fn main() {
                 ratios.push(b / a);
             }
             let best = |v: &[f64]| v.iter().copied().fold(f64::INFINITY, f64::min);
+            // The median (the lower middle value for an even count).
             ratios.sort_by(f64::total_cmp);
             println!(
                 "| {name} | {ratio} | {:.2} | {:.2} | {:.1} | {:.1} | {nm} / {no} |",
                 best(&to) / best(&tm),
-                ratios[ratios.len() / 2],
+                ratios[(ratios.len() - 1) / 2],
                 best(&tm) * 1e3,
                 best(&to) * 1e3
             );

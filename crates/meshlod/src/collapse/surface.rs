@@ -846,9 +846,10 @@ impl Surface {
     }
 
     /// Hardware prefetches of the positions of the corners of the triangles around
-    /// `u` and `v` (what [`Self::check`] reads next). The triangles themselves
-    /// should be in cache already ([`Self::prefetch_triangles_hint`] one step
-    /// earlier); nothing waits for the positions. A hint: nothing changes.
+    /// `u` and `v` (what [`Self::check`] reads next). The fans and triangles are
+    /// read to find them (in cache already after [`Self::prefetch_triangles_hint`]
+    /// one step earlier, else this waits for them); nothing waits for the
+    /// positions. A hint: nothing changes.
     #[inline(always)]
     pub fn prefetch_pair(&self, u: u32, v: u32) {
         for p in [u, v] {
@@ -892,8 +893,9 @@ impl Surface {
     }
 
     /// Second stage: with the fan records of `a` and `b` loaded by
-    /// [`Self::prefetch_point_hint`] a while ago, hardware prefetches of the first
-    /// and last lines of their fans. A hint.
+    /// [`Self::prefetch_point_hint`] a while ago (read here, so this waits if they
+    /// have not arrived), hardware prefetches of the first and last lines of their
+    /// fans. A hint.
     #[inline(always)]
     pub fn prefetch_fans_hint(&self, a: u32, b: u32) {
         for p in [a, b] {

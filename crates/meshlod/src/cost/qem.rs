@@ -328,8 +328,10 @@ impl CostModel for Qem {
     #[inline(always)]
     fn prefetch_hint(&self, point: u32) {
         if let Some(q) = self.quadrics.get(point as usize) {
-            // 88 bytes: the first and the last byte cover every line it spans.
+            // 88 bytes at an 8-byte alignment span up to three cache lines: the
+            // first, a middle and the last field cover each of them.
             crate::isa::prefetch(&q.m[0]);
+            crate::isa::prefetch(&q.m[5]);
             crate::isa::prefetch(&q.weight);
         }
     }

@@ -22,12 +22,15 @@
 //! On a mesh larger than the cache, each pop would wait on a chain of dependent
 //! cache misses: the pair's point records, then their fans, then the fans'
 //! triangles, then the corners' positions. The loop therefore starts loading the
-//! *next* pop (most likely the queue's top) one stage per step of the current
-//! iteration, as hardware prefetches that nothing waits for: the point records
-//! right after the pop, the fans after the legality check, the triangles after the
-//! re-queue, the positions after the next pop. The points whose pairs a collapse
-//! re-queues are prefetched as soon as the check has accepted it, so their loads
-//! overlap the filters and the collapse. None of this changes a result (the output
+//! *next* pop (most likely the queue's top) one stage per step of an iteration that
+//! collapses, as hardware prefetches: the point records right after the pop, the
+//! fans after the legality check, the triangles after the re-queue, the positions
+//! after the next pop. Nothing waits for a prefetch itself, but each stage reads
+//! what the previous one loaded to find its addresses (and waits if it has not
+//! arrived); a pop that does not collapse (stale, rejected) starts only the first
+//! stage. The points whose pairs a collapse re-queues are prefetched as soon as the
+//! check has accepted it, so their loads overlap the filters and the collapse.
+//! None of this changes a result (the output
 //! meshes and reports are byte for byte those without it); it cut the time of a
 //! run by 15–27% on 70k–200k-triangle meshes and by 6–15% on a 3.2M-triangle one
 //! (2026-12-02, measurements in the README), for 3–4% more instructions.
@@ -411,8 +414,10 @@ fn run_impl<C: CostModel + ?Sized>(
         // The points whose pairs are re-queued after this collapse (the corners of
         // the triangles that change): start loading their state now, so the loads
         // overlap the filters and the collapse instead of stalling the re-queue.
-        // Around a fan each neighbour follows the moving corner in exactly one
-        // triangle, so that corner alone names each of them once.
+        // Around an interior fan each neighbour follows the moving corner in
+        // exactly one triangle, so that corner alone names each of them once (a
+        // border fan misses one, and when `v` stays put its own fan is not among
+        // the changed triangles: a hint may miss some).
         for ch in &preview.changed {
             let tt = d.surface.triangle(ch.triangle);
             d.prefetch_points([tt[(usize::from(ch.corner) + 1) % 3]]);
@@ -475,9 +480,11 @@ fn run_impl<C: CostModel + ?Sized>(
             }
         }
         d.push_around(v);
-        // Third stage for the next pop: its triangles (the fourth, their corners,
-        // is `prefetch_pair` after the pop). Then its points' records again, now
-        // waited for: the top may have changed with this collapse's re-queues.
+        // Third stage for the next pop: its triangles, found through its fans
+        // (loaded by the second stage; if this collapse's re-queues changed the
+        // top, this waits on the new top's records and fans). The fourth, their
+        // corners, is `prefetch_pair` after the pop. Then its points' records,
+        // versions and quadrics with ordinary loads.
         if let Some(&n) = d.heap.peek_band() {
             d.surface.prefetch_triangles_hint(n.a, n.b);
             d.surface.prefetch_start(n.a, n.b);

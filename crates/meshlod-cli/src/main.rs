@@ -36,6 +36,24 @@ enum Command {
     Pm(pm::PmCommand),
 }
 
+/// The error and its causes on one line, `: `-separated, each once: a cause whose
+/// text the message already holds (a library error that prints its own cause, such
+/// as an I/O error naming its file) is not repeated.
+fn one_line(e: &anyhow::Error) -> String {
+    let mut msg = String::new();
+    for cause in e.chain() {
+        let text = cause.to_string();
+        if msg.contains(&text) {
+            continue;
+        }
+        if !msg.is_empty() {
+            msg.push_str(": ");
+        }
+        msg.push_str(&text);
+    }
+    msg
+}
+
 fn main() -> ExitCode {
     let cli = Cli::parse();
     let result = match cli.command {
@@ -47,7 +65,7 @@ fn main() -> ExitCode {
     match result {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
-            eprintln!("meshlod: error: {e:#}");
+            eprintln!("meshlod: error: {}", one_line(&e));
             ExitCode::FAILURE
         }
     }

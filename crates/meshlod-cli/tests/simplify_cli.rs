@@ -137,7 +137,16 @@ fn bad_arguments_give_clean_errors() {
     }
     let out = meshlod(&["simplify", "no/such/file.ply", "-o", o]);
     assert!(!out.status.success());
-    assert!(String::from_utf8_lossy(&out.stderr).contains("no/such/file.ply"));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("no/such/file.ply"), "{err}");
+    // The operating system's cause is printed once, not once per error layer.
+    assert_eq!(err.matches("os error").count(), 1, "{err}");
+    let missing = dir.path().join("no_dir").join("o.ply");
+    let out = meshlod(&["simplify", i, "-o", missing.to_str().unwrap()]);
+    assert!(!out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("no_dir"), "{err}");
+    assert_eq!(err.matches("os error").count(), 1, "{err}");
 }
 
 /// glTF in, glTF out: every part simplified separately, the scene kept. Skipped

@@ -12,41 +12,12 @@
 //! `MESHLOD_PROFILE=mesh:ratio:n[:meshopt]` runs only ours (or only meshoptimizer)
 //! `n` times, for `perf record`.
 
-use meshlod::mesh::{Mesh, Weld};
+mod common;
+use common::{load, welded};
+use meshlod::mesh::Mesh;
 use meshlod::simplify::{simplify, SimplifyOptions};
 use std::hint::black_box;
-use std::path::Path;
 use std::time::Instant;
-
-fn load(name: &str) -> Mesh {
-    let shared = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/meshes");
-    let f = match name {
-        "bunny" => "vtk-data/bunny.ply",
-        "fandisk" => "common-3d-test-models/fandisk.obj",
-        "armadillo" => "libigl-tutorial-data/armadillo.obj",
-        "lucy" => "vtk-data/lucy.ply",
-        "turbine" => "vtk-data/turbineblade.ply",
-        other => other,
-    };
-    meshlod::read_mesh(shared.join(f)).expect("mesh")
-}
-
-/// The mesh welded exactly, as meshoptimizer wants it: indices and position bytes.
-fn welded(m: &Mesh) -> (Vec<u32>, Vec<u8>) {
-    let weld = Weld::exact(&m.positions);
-    let indices: Vec<u32> = m
-        .triangles
-        .iter()
-        .flat_map(|t| t.map(|v| weld.point_of[v as usize]))
-        .collect();
-    let bytes: Vec<u8> = weld
-        .representative
-        .iter()
-        .flat_map(|&v| m.positions[v as usize])
-        .flat_map(|x| x.to_le_bytes())
-        .collect();
-    (indices, bytes)
-}
 
 fn ours(m: &Mesh, ratio: f64) -> usize {
     let o = SimplifyOptions::default().with_ratio(ratio);

@@ -30,10 +30,10 @@
 //! arrived); a pop that does not collapse (stale, rejected) starts only the first
 //! stage. The points whose pairs a collapse re-queues are prefetched as soon as the
 //! check has accepted it, so their loads overlap the filters and the collapse.
-//! None of this changes a result (the output
-//! meshes and reports are byte for byte those without it); it cut the time of a
-//! run by 15–27% on 70k–200k-triangle meshes and by 6–15% on a 3.2M-triangle one
-//! (2026-12-02, measurements in the README), for 3–4% more instructions.
+//! None of this changes a result (the output meshes and reports are byte for byte
+//! those without it); it cut the time of a run by 15–27% on 70k–200k-triangle
+//! meshes and by 6–15% on a 3.2M-triangle one (2026-12-02, measurements in the
+//! README), for 3–4% more instructions.
 
 use super::heap::{Heap, Item};
 use super::{Observer, Outcome, Rejections, StopReason, StopRule};
@@ -355,7 +355,7 @@ fn run_impl<C: CostModel + ?Sized>(
         // (point records, fans, triangles, positions) that would stall the loop at
         // every pop on a mesh larger than the cache. The next pop is most likely
         // the new top: its stages are started one per step of this iteration, as
-        // hardware prefetches, so each has arrived when the next one needs it.
+        // hardware prefetches, so each has usually arrived when the next needs it.
         // First stage: its points' records.
         if let Some(&n) = d.heap.peek_band() {
             d.prefetch_points([n.a, n.b]);

@@ -863,22 +863,6 @@ impl Surface {
         }
     }
 
-    /// Reads the per-point state a pop of pair `(a, b)` starts with (a hint).
-    pub fn prefetch_start(&self, a: u32, b: u32) {
-        let mut s = 0u32;
-        for p in [a, b] {
-            let p = p as usize;
-            if p < self.pos.len() {
-                s = s
-                    .wrapping_add(self.fan_slot[p].start)
-                    .wrapping_add(self.fan_slot[p].len)
-                    .wrapping_add(self.kind[p] as u32)
-                    .wrapping_add(self.pos[p][0].to_bits());
-            }
-        }
-        std::hint::black_box(s);
-    }
-
     /// Hardware prefetches of the per-point state an evaluation of a pair with `p`
     /// reads (kind, fan record, position): the first stage of loading a pair's
     /// neighbourhood ahead of its pop. A hint: nothing waits for it.

@@ -172,13 +172,7 @@ impl<C: CostModel + ?Sized> Driver<'_, C> {
         self.surface.neighbours(v, &mut nb);
         // Read the neighbours' state in one pass first: their cache misses then
         // overlap instead of stalling one evaluation each.
-        self.cost.prefetch(&nb);
-        self.surface.prefetch(&nb);
-        let mut s = 0u32;
-        for &q in &nb {
-            s = s.wrapping_add(self.version[q as usize]);
-        }
-        std::hint::black_box(s);
+        self.load_points(&nb);
         let pv = self.surface.local(v);
         for &q in &nb {
             if let Some(e) = self.entry_at(v, pv, q, false) {
@@ -198,6 +192,21 @@ impl<C: CostModel + ?Sized> Driver<'_, C> {
             }
         }
         self.scratch = nb;
+    }
+
+    /// Reads what evaluating a pair of these points reads first (the cost model's
+    /// state, the surface's point records, versions) in one pass of independent
+    /// loads that the core waits for, so their misses overlap. A hint: nothing
+    /// changes.
+    #[inline(always)]
+    fn load_points(&self, points: &[u32]) {
+        self.cost.prefetch(points);
+        self.surface.prefetch(points);
+        let mut s = 0u32;
+        for &q in points {
+            s = s.wrapping_add(self.version[q as usize]);
+        }
+        std::hint::black_box(s);
     }
 
     /// Hardware prefetches of what evaluating a pair of these points reads first
@@ -487,9 +496,7 @@ fn run_impl<C: CostModel + ?Sized>(
         // versions and quadrics with ordinary loads.
         if let Some(&n) = d.heap.peek_band() {
             d.surface.prefetch_triangles_hint(n.a, n.b);
-            d.surface.prefetch_start(n.a, n.b);
-            d.cost.prefetch(&[n.a, n.b]);
-            std::hint::black_box(d.version[n.a as usize].wrapping_add(d.version[n.b as usize]));
+            d.load_points(&[n.a, n.b]);
         }
         // Drop stale entries once the queue holds more than ~2 entries per live
         // triangle (there are ~1.5 live pairs per triangle): bounds its memory.

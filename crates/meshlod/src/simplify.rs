@@ -649,6 +649,9 @@ pub fn simplify_observed(
         mesh,
         &BuildOptions {
             locked: options.locked_vertices.as_deref(),
+            // The edge-collapse loop's memory walks follow the one-ring; vertex
+            // removal keeps the input's numbering (its measured outputs).
+            spatial_order: matches!(options.method, Method::Qem | Method::Melax),
         },
     );
     let diag = surface.diagonal();

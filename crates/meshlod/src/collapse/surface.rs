@@ -76,6 +76,13 @@ impl FanCsr {
 pub struct BuildOptions<'a> {
     /// Per input vertex: `true` locks it (its point is never moved or removed).
     pub locked: Option<&'a [bool]>,
+    /// Number the points in Z order of their positions ([`Weld::sort_spatially`])
+    /// instead of the input's first-occurrence order, so that the fans, triangles
+    /// and per-point records walked together sit together in memory whatever the
+    /// input's vertex order. Default `false` (point ids follow the input, which
+    /// small hand-built tests rely on); [`crate::simplify()`] turns it on for the
+    /// edge-collapse methods.
+    pub spatial_order: bool,
 }
 
 /// What the up-front repair removed from the input.
@@ -166,7 +173,10 @@ impl Surface {
     /// shorter than the vertex list.
     #[must_use]
     pub fn build(mesh: &Mesh, options: &BuildOptions<'_>) -> (Self, Repair) {
-        let weld = Weld::exact(&mesh.positions);
+        let mut weld = Weld::exact(&mesh.positions);
+        if options.spatial_order {
+            weld.sort_spatially(&mesh.positions);
+        }
         let np = weld.point_count();
         let has_attrs = !mesh.attributes.is_empty();
         // Without attributes every vertex's wedge is its point's representative, which
@@ -522,6 +532,15 @@ impl Surface {
     #[inline]
     pub fn triangle(&self, t: u32) -> [u32; 3] {
         self.tri[t as usize]
+    }
+
+    /// An input vertex at point `p`'s position in the input (its wedge there), or
+    /// [`DEAD`] for a point no kept triangle used. Point ids are the surface's own
+    /// (see [`BuildOptions::spatial_order`]); this maps them back to the input.
+    #[must_use]
+    #[inline]
+    pub fn point_vertex(&self, p: u32) -> u32 {
+        self.point_wedge[p as usize]
     }
 
     /// Wedge (canonical input vertex) of corner `k` of triangle `t`.

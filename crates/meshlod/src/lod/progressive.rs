@@ -311,6 +311,7 @@ impl ProgressiveMesh {
 struct Recorder {
     /// Live triangle slots when the first collapse happened.
     initial_live: Vec<bool>,
+    /// Per collapse: an input vertex at the removed point and one at the kept point.
     removed: Vec<u32>,
     kept: Vec<u32>,
     error: Vec<f32>,
@@ -340,8 +341,10 @@ impl Observer for Recorder {
                 self.moved.push((3 * t + k as u32, surface.wedge(t, k)));
             }
         }
-        self.removed.push(removed);
-        self.kept.push(kept);
+        // Input vertices, not the surface's point ids (numbered in spatial order):
+        // `finish` maps them to points of its own welding.
+        self.removed.push(surface.point_vertex(removed));
+        self.kept.push(surface.point_vertex(kept));
         self.dying_end.push(self.dying.len() as u32);
         self.moved_end.push(self.moved.len() as u32);
     }
@@ -413,7 +416,10 @@ fn finish(mesh: &Mesh, base: &Mesh, source: &[u32], rec: &Recorder) -> Progressi
 
     let n = rec.removed.len();
     for c in (0..n).rev() {
-        let (u, v) = (rec.removed[c], rec.kept[c]);
+        let (u, v) = (
+            point_of[rec.removed[c] as usize],
+            point_of[rec.kept[c] as usize],
+        );
         let d0 = if c == 0 {
             0
         } else {

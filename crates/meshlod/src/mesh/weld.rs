@@ -8,7 +8,8 @@
 /// Result of welding: each vertex's point id, and the points' positions.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Weld {
-    /// For each vertex, the id of its point (dense, in first-occurrence order).
+    /// For each vertex, the id of its point (dense; in first-occurrence order unless
+    /// [`Weld::sort_spatially`] renumbered them).
     pub point_of: Vec<u32>,
     /// For each point, the vertex that first had its position.
     pub representative: Vec<u32>,
@@ -95,6 +96,76 @@ impl Weld {
         self.representative.len()
     }
 
+    /// Renumbers the points in Z order (Morton order) of their positions: points near
+    /// each other in space get nearby ids, whatever the order of the input's vertices
+    /// (Morton, "A computer oriented geodetic data base and a new technique in file
+    /// sequencing", IBM 1966). `positions` are the welded vertices' positions.
+    ///
+    /// Each coordinate is quantised to 10 bits over the points' bounding cube (the
+    /// box's longest side on every axis) and the bits are interleaved into a 30-bit
+    /// code; points are sorted by code with a stable radix sort (O(n)), so points in
+    /// one cell keep their first-occurrence order. Afterwards `point_of` and
+    /// `representative` describe the same welding with the new ids; ids are no
+    /// longer in first-occurrence order. A structure built over the points then walks
+    /// memory in spatial order, which keeps the caches warm on inputs whose vertex
+    /// order is scattered (a shuffled 3.2M-triangle mesh simplifies 1.35–1.6× slower
+    /// than the same mesh in scan order without this).
+    ///
+    /// # Panics
+    /// Panics if `positions` is shorter than the welded vertex list.
+    pub fn sort_spatially(&mut self, positions: &[[f32; 3]]) {
+        let n = self.representative.len();
+        if n < 2 {
+            return;
+        }
+        let mut lo = [f32::INFINITY; 3];
+        let mut hi = [f32::NEG_INFINITY; 3];
+        for &r in &self.representative {
+            let p = positions[r as usize];
+            for k in 0..3 {
+                lo[k] = lo[k].min(p[k]);
+                hi[k] = hi[k].max(p[k]);
+            }
+        }
+        let side = (0..3)
+            .map(|k| f64::from(hi[k]) - f64::from(lo[k]))
+            .fold(0.0f64, f64::max);
+        // NaN (non-finite input) or an empty extent: every point in cell 0, the order
+        // unchanged.
+        let scale = if side.is_finite() && side > 0.0 {
+            1023.0 / side
+        } else {
+            0.0
+        };
+        let mut keys: Vec<u64> = self
+            .representative
+            .iter()
+            .enumerate()
+            .map(|(id, &r)| {
+                let p = positions[r as usize];
+                let mut code = 0u64;
+                for k in 0..3 {
+                    // `as` saturates (NaN to 0), so the cell is in 0..=1023.
+                    let c = ((f64::from(p[k]) - f64::from(lo[k])) * scale) as u32;
+                    code |= spread_bits(c.min(1023)) << k;
+                }
+                (code << 32) | id as u64
+            })
+            .collect();
+        crate::radix::sort_by_high_half(&mut keys);
+        let mut new_id = vec![0u32; n];
+        let old_rep = std::mem::take(&mut self.representative);
+        self.representative = Vec::with_capacity(n);
+        for (rank, &k) in keys.iter().enumerate() {
+            let old = (k & 0xFFFF_FFFF) as usize;
+            new_id[old] = rank as u32;
+            self.representative.push(old_rep[old]);
+        }
+        for p in &mut self.point_of {
+            *p = new_id[*p as usize];
+        }
+    }
+
     /// Triangles with their vertex ids replaced by point ids.
     #[must_use]
     pub fn map_triangles(&self, triangles: &[[u32; 3]]) -> Vec<[u32; 3]> {
@@ -109,6 +180,17 @@ impl Weld {
     pub fn duplicate_count(&self) -> usize {
         self.point_of.len() - self.representative.len()
     }
+}
+
+/// Spreads the low 10 bits of `x` to every third bit (bit `i` to bit `3i`).
+#[inline]
+fn spread_bits(x: u32) -> u64 {
+    let mut x = u64::from(x & 0x3FF);
+    x = (x | (x << 16)) & 0x0300_00FF;
+    x = (x | (x << 8)) & 0x0300_F00F;
+    x = (x | (x << 4)) & 0x030C_30C3;
+    x = (x | (x << 2)) & 0x0924_9249;
+    x
 }
 
 /// Mixes three 32-bit words into a well-spread 32-bit hash (multiply-xorshift).
@@ -139,5 +221,61 @@ mod tests {
         assert_eq!(w.point_of, vec![0, 1, 0, 0]);
         assert_eq!(w.point_count(), 2);
         assert_eq!(w.duplicate_count(), 2);
+    }
+
+    #[test]
+    fn spread_bits_interleaves() {
+        assert_eq!(spread_bits(0), 0);
+        assert_eq!(spread_bits(1), 1);
+        assert_eq!(spread_bits(0b11), 0b1001);
+        assert_eq!(spread_bits(0x3FF), 0o1_111_111_111);
+        // Bits above the tenth are ignored.
+        assert_eq!(spread_bits(0x400), 0);
+    }
+
+    /// A 4×4×4 lattice listed in a scrambled order, each point twice: after
+    /// `sort_spatially` the welding is the same partition of the vertices, each
+    /// point's representative still has its position, and the ids follow the Z
+    /// order of the lattice (the code `Σ spread(c_k) << k` rises with the id).
+    #[test]
+    fn sort_spatially_keeps_the_welding_and_follows_z_order() {
+        let mut pos = Vec::new();
+        for i in 0..64u32 {
+            // 37 is odd, so i ↦ 37·i mod 64 is a permutation.
+            let j = (37 * i) % 64;
+            let c = [j % 4, (j / 4) % 4, j / 16];
+            pos.push(c.map(|x| x as f32));
+        }
+        let doubled: Vec<[f32; 3]> = pos.iter().chain(pos.iter()).copied().collect();
+        let before = Weld::exact(&doubled);
+        let mut after = before.clone();
+        after.sort_spatially(&doubled);
+        assert_eq!(after.point_count(), 64);
+        for v in 0..doubled.len() {
+            for w in 0..doubled.len() {
+                assert_eq!(
+                    before.point_of[v] == before.point_of[w],
+                    after.point_of[v] == after.point_of[w]
+                );
+            }
+            let r = after.representative[after.point_of[v] as usize] as usize;
+            assert_eq!(doubled[r], doubled[v]);
+        }
+        let code = |p: [f32; 3]| -> u64 {
+            // The lattice spans 3 units: cell = coordinate · 1023 / 3.
+            (0..3)
+                .map(|k| spread_bits((p[k] * 341.0) as u32) << k)
+                .sum()
+        };
+        let codes: Vec<u64> = after
+            .representative
+            .iter()
+            .map(|&r| code(doubled[r as usize]))
+            .collect();
+        assert!(codes.windows(2).all(|w| w[0] < w[1]), "{codes:?}");
+        // A flat or single-point set keeps its order.
+        let mut flat = Weld::exact(&[[1.0, 2.0, 3.0], [1.0, 2.0, 3.0]]);
+        flat.sort_spatially(&[[1.0, 2.0, 3.0], [1.0, 2.0, 3.0]]);
+        assert_eq!(flat.point_of, vec![0, 0]);
     }
 }

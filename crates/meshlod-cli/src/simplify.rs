@@ -248,6 +248,9 @@ struct CliReport {
     duplicate_removed: usize,
     /// Diagonal swaps of the orientation repair (qem, melax).
     facing_flips: usize,
+    /// Times pairs rejected earlier were queued again once the queue's cost had
+    /// grown past theirs (qem, melax).
+    retries: usize,
     /// Output triangles facing away from the input before and after the repair.
     #[serde(skip_serializing_if = "Option::is_none")]
     facing_away: Option<[usize; 2]>,
@@ -581,6 +584,7 @@ fn report(
         degenerate_removed: agg.degenerate,
         duplicate_removed: agg.duplicate,
         facing_flips: agg.facing_flips,
+        retries: agg.retries,
         facing_away: agg.facing_away,
         hausdorff: measure.map(|d| {
             if args.absolute || d.bbox_diagonal <= 0.0 {
@@ -621,6 +625,7 @@ struct Aggregate {
     degenerate: usize,
     duplicate: usize,
     facing_flips: usize,
+    retries: usize,
     facing_away: Option<[usize; 2]>,
     cluster: Option<ClusterStats>,
 }
@@ -645,6 +650,7 @@ impl Aggregate {
             degenerate: 0,
             duplicate: 0,
             facing_flips: 0,
+            retries: 0,
             facing_away: None,
             cluster: None,
         }
@@ -673,6 +679,7 @@ impl Aggregate {
         self.degenerate += r.degenerate_removed;
         self.duplicate += r.duplicate_removed;
         self.facing_flips += r.facing_flips;
+        self.retries += r.retries;
         if let Some([b, a]) = r.facing_away {
             let [sb, sa] = self.facing_away.get_or_insert([0, 0]);
             *sb += b;

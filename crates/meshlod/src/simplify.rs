@@ -580,6 +580,9 @@ pub struct Report {
     pub rejections: Rejections,
     /// Full re-scans after the queue ran dry.
     pub rescans: usize,
+    /// Retries of rejected pairs once the queue's cost had grown past theirs (QEM,
+    /// Melax).
+    pub retries: usize,
     /// Whether the soft triangle-quality guard was switched off to reach the target.
     pub soft_filters_relaxed: bool,
     /// Diagonal swaps made by the orientation repair ([`SimplifyOptions::facing_repair`]).
@@ -763,6 +766,7 @@ pub fn simplify_observed(
         duplicate_removed: repair.duplicate_triangles,
         rejections: outcome.rejections,
         rescans: outcome.rescans,
+        retries: outcome.retries,
         soft_filters_relaxed: outcome.soft_filters_relaxed,
         facing_flips: facing.map_or(0, |f| f.flips),
         facing_away: facing.map(|f| [f.before, f.after]),
@@ -875,6 +879,7 @@ fn cluster_result(
         duplicate_removed: 0,
         rejections: Rejections::default(),
         rescans: 0,
+        retries: 0,
         soft_filters_relaxed: false,
         facing_flips: 0,
         facing_away: None,

@@ -173,3 +173,23 @@ fn shared_meshes_keep_invariants() {
         failures.join("\n")
     );
 }
+
+/// Pairs rejected earlier are retried once the queue's cost has grown past theirs.
+/// On Hoppe's club at 1% (191 of 19,136 triangles) a flat region's pairs were
+/// rejected (fold-over, sliver guard) and never queued again, because the collapses
+/// that made them legal did not touch their own points: the run went on with
+/// collapses costing up to 12.2% of the diagonal while pairs costing ~10⁻¹⁴ waited,
+/// then collapsed those after a re-scan. With the retries the worst collapse costs
+/// 1.0% (Hausdorff maximum 14.9% → 2.6%).
+#[test]
+fn rejected_cheap_pairs_are_retried_before_costly_collapses() {
+    let Some(shared) = common::shared_meshes("rejected_cheap_pairs_are_retried") else {
+        return;
+    };
+    let mesh = meshlod::read_mesh(shared.join("hoppe-mesh-processing-library/club.obj"))
+        .expect("club.obj reads");
+    let (out, r) = simplify(&mesh, &SimplifyOptions::default().with_ratio(0.01)).unwrap();
+    assert!(out.triangles.len() <= r.target_triangles);
+    assert!(r.retries > 0, "{r:?}");
+    assert!(r.error < 0.02, "worst collapse {} of the diagonal", r.error);
+}

@@ -153,6 +153,9 @@ pub struct Outcome {
     pub rejections: Rejections,
     /// Full re-scans of all pairs done after the queue ran dry.
     pub rescans: usize,
+    /// Times the pairs rejected since the previous retry were queued again because
+    /// the queue's cost had grown past theirs (edge collapse).
+    pub retries: usize,
     /// Whether soft filters were switched off to reach the target.
     pub soft_filters_relaxed: bool,
 }

@@ -2028,6 +2028,7 @@ impl VertexRemoval {
             max_error: 0.0,
             rejections: Rejections::default(),
             rescans: 0,
+            retries: 0,
             soft_filters_relaxed: false,
         };
         if self.live == 0 {

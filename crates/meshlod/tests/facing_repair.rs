@@ -5,7 +5,7 @@
 //! triangles facing away (the cow, the bunny and the stratocaster do at these
 //! ratios), and does not raise the symmetric Hausdorff distance beyond sampling noise
 //! (1%; the sampler's face samples move when two triangles change) nor the mean by
-//! more than 2%.
+//! more than 1% (2% on the stratocaster at 10%, see below).
 
 mod common;
 
@@ -73,8 +73,13 @@ fn repair_turns_triangles_back_without_leaving_the_input() {
             // partly an artefact of the nearest-triangle test) 10 swaps of 866
             // triangles raise the mean by 1.4% since session 14's retries of
             // rejected pairs changed that output; 2% still catches a swap rule that
-            // stops checking distances.
-            assert!(d_on.mean <= 1.02 * d_off.mean, "{name}: H mean rose");
+            // stops checking distances. The other cases keep 1%.
+            let tol = if file == "stratocaster.ply" && ratio == 0.1 {
+                1.02
+            } else {
+                1.01
+            };
+            assert!(d_on.mean <= tol * d_off.mean, "{name}: H mean rose");
         }
     }
     assert!(

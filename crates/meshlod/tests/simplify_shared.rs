@@ -180,7 +180,7 @@ fn shared_meshes_keep_invariants() {
 /// that made them legal did not touch their own points: the run went on with
 /// collapses costing up to 12.2% of the diagonal while pairs costing ~10⁻¹⁴ waited,
 /// then collapsed those after a re-scan. With the retries the worst collapse costs
-/// 1.0% (Hausdorff maximum 14.9% → 2.6%).
+/// 1.0% (Hausdorff maximum 14.9% → 2.6%; the test allows 2% and 5%).
 #[test]
 fn rejected_cheap_pairs_are_retried_before_costly_collapses() {
     let Some(shared) = common::shared_meshes("rejected_cheap_pairs_are_retried") else {
@@ -192,4 +192,18 @@ fn rejected_cheap_pairs_are_retried_before_costly_collapses() {
     assert!(out.triangles.len() <= r.target_triangles);
     assert!(r.retries > 0, "{r:?}");
     assert!(r.error < 0.02, "worst collapse {} of the diagonal", r.error);
+    // And measured: the symmetric Hausdorff maximum was 14.9% of the diagonal.
+    let d = meshlod::metrics::hausdorff(
+        &mesh,
+        &out,
+        &meshlod::metrics::SamplingOptions {
+            samples: Some(200_000),
+            ..meshlod::metrics::SamplingOptions::default()
+        },
+    );
+    assert!(
+        d.hausdorff < 0.05 * d.bbox_diagonal,
+        "Hausdorff {} of the diagonal",
+        d.hausdorff / d.bbox_diagonal
+    );
 }

@@ -534,8 +534,9 @@ impl Surface {
         self.tri[t as usize]
     }
 
-    /// An input vertex at point `p`'s position in the input (its wedge there), or
-    /// [`DEAD`] for a point no kept triangle used. Point ids are the surface's own
+    /// An input vertex at point `p`'s position in the input (its wedge there). For a
+    /// mesh with attributes, [`DEAD`] for a point that no kept triangle used (without
+    /// attributes, always the point's first vertex). Point ids are the surface's own
     /// (see [`BuildOptions::spatial_order`]); this maps them back to the input.
     #[must_use]
     #[inline]

@@ -273,7 +273,14 @@ mod tests {
             .map(|&r| code(doubled[r as usize]))
             .collect();
         assert!(codes.windows(2).all(|w| w[0] < w[1]), "{codes:?}");
-        // A flat or single-point set keeps its order.
+        // Points in one cell keep their first-occurrence order: the first two are
+        // 10⁻⁴ apart on a unit box (cells of 1/1023), listed against Z order's
+        // tie-free order (x first).
+        let tie = [[1.0e-4, 0.0, 0.0], [0.0, 0.0, 0.0], [1.0, 1.0, 1.0]];
+        let mut w = Weld::exact(&tie);
+        w.sort_spatially(&tie);
+        assert_eq!(w.point_of, vec![0, 1, 2]);
+        // A single-point set keeps its order.
         let mut flat = Weld::exact(&[[1.0, 2.0, 3.0], [1.0, 2.0, 3.0]]);
         flat.sort_spatially(&[[1.0, 2.0, 3.0], [1.0, 2.0, 3.0]]);
         assert_eq!(flat.point_of, vec![0, 0]);

@@ -1,6 +1,22 @@
 //! A stable least-significant-digit radix sort of `u64` keys by their high 32 bits
 //! (Knuth, *The Art of Computer Programming* vol. 3, §5.2.5: distribution sorting),
-//! for the places that sort packed `(key << 32) | id` words built in id order.
+//! for the places that sort packed `(key << 32) | id` words built in id order, and the
+//! 30-bit Morton (Z-order) code most of those keys are (Morton, "A computer oriented
+//! geodetic data base and a new technique in file sequencing", IBM 1966).
+
+/// Interleaves the low 10 bits of `x`, `y` and `z` (`x` lowest): the Z-order code
+/// of a cell of a 1024³ grid.
+#[inline]
+pub(crate) fn morton3(x: u32, y: u32, z: u32) -> u32 {
+    fn spread(v: u32) -> u32 {
+        let mut v = v & 0x3ff;
+        v = (v | (v << 16)) & 0x0300_00ff;
+        v = (v | (v << 8)) & 0x0300_f00f;
+        v = (v | (v << 4)) & 0x030c_30c3;
+        (v | (v << 2)) & 0x0924_9249
+    }
+    spread(x) | (spread(y) << 1) | (spread(z) << 2)
+}
 
 /// Bits per counting pass (2048 counters: they stay in the L1 cache).
 const DIGIT: u32 = 11;
@@ -48,6 +64,18 @@ pub(crate) fn sort_by_high_half(keys: &mut Vec<u64>) {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn morton3_interleaves() {
+        assert_eq!(morton3(0, 0, 0), 0);
+        assert_eq!(morton3(1, 0, 0), 0b001);
+        assert_eq!(morton3(0, 1, 0), 0b010);
+        assert_eq!(morton3(0, 0, 1), 0b100);
+        assert_eq!(morton3(3, 0, 0), 0b1001);
+        assert_eq!(morton3(0x3FF, 0x3FF, 0x3FF), (1 << 30) - 1);
+        // Bits above the tenth are ignored.
+        assert_eq!(morton3(0x400, 0x400, 0x400), 0);
+    }
 
     /// Packed keys in id order, high halves with many repeats and the full range:
     /// the radix sort equals the comparison sort.

@@ -143,13 +143,10 @@ impl Weld {
             .enumerate()
             .map(|(id, &r)| {
                 let p = positions[r as usize];
-                let mut code = 0u64;
-                for k in 0..3 {
-                    // `as` saturates (NaN to 0), so the cell is in 0..=1023.
-                    let c = ((f64::from(p[k]) - f64::from(lo[k])) * scale) as u32;
-                    code |= spread_bits(c.min(1023)) << k;
-                }
-                (code << 32) | id as u64
+                // `as` saturates (NaN to 0), so the cell is in 0..=1023.
+                let c =
+                    |k: usize| (((f64::from(p[k]) - f64::from(lo[k])) * scale) as u32).min(1023);
+                (u64::from(crate::radix::morton3(c(0), c(1), c(2))) << 32) | id as u64
             })
             .collect();
         crate::radix::sort_by_high_half(&mut keys);
@@ -182,17 +179,6 @@ impl Weld {
     }
 }
 
-/// Spreads the low 10 bits of `x` to every third bit (bit `i` to bit `3i`).
-#[inline]
-fn spread_bits(x: u32) -> u64 {
-    let mut x = u64::from(x & 0x3FF);
-    x = (x | (x << 16)) & 0x0300_00FF;
-    x = (x | (x << 8)) & 0x0300_F00F;
-    x = (x | (x << 4)) & 0x030C_30C3;
-    x = (x | (x << 2)) & 0x0924_9249;
-    x
-}
-
 /// Mixes three 32-bit words into a well-spread 32-bit hash (multiply-xorshift).
 #[inline]
 fn hash3(k: [u32; 3]) -> u32 {
@@ -223,16 +209,6 @@ mod tests {
         assert_eq!(w.duplicate_count(), 2);
     }
 
-    #[test]
-    fn spread_bits_interleaves() {
-        assert_eq!(spread_bits(0), 0);
-        assert_eq!(spread_bits(1), 1);
-        assert_eq!(spread_bits(0b11), 0b1001);
-        assert_eq!(spread_bits(0x3FF), 0o1_111_111_111);
-        // Bits above the tenth are ignored.
-        assert_eq!(spread_bits(0x400), 0);
-    }
-
     /// A 4×4×4 lattice listed in a scrambled order, each point twice: after
     /// `sort_spatially` the welding is the same partition of the vertices, each
     /// point's representative still has its position, and the ids follow the Z
@@ -261,13 +237,12 @@ mod tests {
             let r = after.representative[after.point_of[v] as usize] as usize;
             assert_eq!(doubled[r], doubled[v]);
         }
-        let code = |p: [f32; 3]| -> u64 {
+        let code = |p: [f32; 3]| -> u32 {
             // The lattice spans 3 units: cell = coordinate · 1023 / 3.
-            (0..3)
-                .map(|k| spread_bits((p[k] * 341.0) as u32) << k)
-                .sum()
+            let c = p.map(|x| (x * 341.0) as u32);
+            crate::radix::morton3(c[0], c[1], c[2])
         };
-        let codes: Vec<u64> = after
+        let codes: Vec<u32> = after
             .representative
             .iter()
             .map(|&r| code(doubled[r as usize]))

@@ -235,7 +235,7 @@ impl Bvh {
             // Out-of-range values clamp into the grid: `as` saturates (negative and
             // NaN give 0), the `min` caps at 1023.
             let q = |k: usize| -> u32 { (((c[k] - cb.lo[k]) * scale[k]) as u32).min(1023) };
-            *key = (u64::from(morton3(q(0), q(1), q(2))) << 32) | t as u64;
+            *key = (u64::from(crate::radix::morton3(q(0), q(1), q(2))) << 32) | t as u64;
         }
         drop(sums);
         crate::radix::sort_by_high_half(&mut keys);
@@ -598,18 +598,6 @@ fn split_node(
     nodes[ni].count = 0;
     work.push((left + 1, mid, end));
     work.push((left, start, mid));
-}
-
-/// Interleaves the low 10 bits of `x`, `y` and `z` (`x` lowest).
-fn morton3(x: u32, y: u32, z: u32) -> u32 {
-    fn spread(v: u32) -> u32 {
-        let mut v = v & 0x3ff;
-        v = (v | (v << 16)) & 0x0300_00ff;
-        v = (v | (v << 8)) & 0x0300_f00f;
-        v = (v | (v << 4)) & 0x030c_30c3;
-        (v | (v << 2)) & 0x0924_9249
-    }
-    spread(x) | (spread(y) << 1) | (spread(z) << 2)
 }
 
 #[inline(always)]

@@ -173,9 +173,11 @@ impl Surface {
     /// shorter than the vertex list.
     #[must_use]
     pub fn build(mesh: &Mesh, options: &BuildOptions<'_>) -> (Self, Repair) {
+        // One box for the Z order and the diagonal.
+        let bounds = mesh.bounding_box(false);
         let mut weld = Weld::exact(&mesh.positions);
-        if options.spatial_order {
-            weld.sort_spatially(&mesh.positions);
+        if let (true, Some(b)) = (options.spatial_order, bounds) {
+            weld.sort_spatially(&mesh.positions, b);
         }
         let np = weld.point_count();
         let has_attrs = !mesh.attributes.is_empty();
@@ -264,24 +266,22 @@ impl Surface {
         drop(dest);
         repair.duplicate_triangles = remove_duplicates(&mut tri, &count[..np]);
 
-        let (diag, center) = mesh
-            .bounding_box(false)
-            .map_or((0.0, [0.0; 3]), |(lo, hi)| {
-                // As `Mesh::bbox_diagonal`, from the one box.
-                let diag = (0..3)
-                    .map(|k| {
-                        let d = f64::from(hi[k]) - f64::from(lo[k]);
-                        d * d
-                    })
-                    .sum::<f64>()
-                    .sqrt();
-                let center = [
-                    0.5 * (f64::from(lo[0]) + f64::from(hi[0])),
-                    0.5 * (f64::from(lo[1]) + f64::from(hi[1])),
-                    0.5 * (f64::from(lo[2]) + f64::from(hi[2])),
-                ];
-                (diag, center)
-            });
+        let (diag, center) = bounds.map_or((0.0, [0.0; 3]), |(lo, hi)| {
+            // As `Mesh::bbox_diagonal`, from the one box.
+            let diag = (0..3)
+                .map(|k| {
+                    let d = f64::from(hi[k]) - f64::from(lo[k]);
+                    d * d
+                })
+                .sum::<f64>()
+                .sqrt();
+            let center = [
+                0.5 * (f64::from(lo[0]) + f64::from(hi[0])),
+                0.5 * (f64::from(lo[1]) + f64::from(hi[1])),
+                0.5 * (f64::from(lo[2]) + f64::from(hi[2])),
+            ];
+            (diag, center)
+        });
         let eps = f64::from(f32::EPSILON) * diag;
         let mut s = Self {
             pos,

@@ -99,10 +99,12 @@ impl Weld {
     /// Renumbers the points in Z order (Morton order) of their positions: points near
     /// each other in space get nearby ids, whatever the order of the input's vertices
     /// (Morton, "A computer oriented geodetic data base and a new technique in file
-    /// sequencing", IBM 1966). `positions` are the welded vertices' positions.
+    /// sequencing", IBM 1966). `positions` are the welded vertices' positions and
+    /// `(lo, hi)` their bounding box ([`crate::mesh::Mesh::bounding_box`], which a
+    /// caller has usually computed already).
     ///
-    /// Each coordinate is quantised to 10 bits over the points' bounding cube (the
-    /// box's longest side on every axis) and the bits are interleaved into a 30-bit
+    /// Each coordinate is quantised to 10 bits over the bounding cube (the box's
+    /// longest side on every axis) and the bits are interleaved into a 30-bit
     /// code; points are sorted by code with a stable radix sort (O(n)), so points in
     /// one cell keep their first-occurrence order. Afterwards `point_of` and
     /// `representative` describe the same welding with the new ids; ids are no
@@ -113,19 +115,10 @@ impl Weld {
     ///
     /// # Panics
     /// Panics if `positions` is shorter than the welded vertex list.
-    pub fn sort_spatially(&mut self, positions: &[[f32; 3]]) {
+    pub fn sort_spatially(&mut self, positions: &[[f32; 3]], (lo, hi): ([f32; 3], [f32; 3])) {
         let n = self.representative.len();
         if n < 2 {
             return;
-        }
-        let mut lo = [f32::INFINITY; 3];
-        let mut hi = [f32::NEG_INFINITY; 3];
-        for &r in &self.representative {
-            let p = positions[r as usize];
-            for k in 0..3 {
-                lo[k] = lo[k].min(p[k]);
-                hi[k] = hi[k].max(p[k]);
-            }
         }
         let side = (0..3)
             .map(|k| f64::from(hi[k]) - f64::from(lo[k]))
@@ -212,7 +205,7 @@ mod tests {
     /// A 4×4×4 lattice listed in a scrambled order, each point twice: after
     /// `sort_spatially` the welding is the same partition of the vertices, each
     /// point's representative still has its position, and the ids follow the Z
-    /// order of the lattice (the code `Σ spread(c_k) << k` rises with the id).
+    /// order of the lattice (its `morton3` code rises with the id).
     #[test]
     fn sort_spatially_keeps_the_welding_and_follows_z_order() {
         let mut pos = Vec::new();
@@ -225,7 +218,7 @@ mod tests {
         let doubled: Vec<[f32; 3]> = pos.iter().chain(pos.iter()).copied().collect();
         let before = Weld::exact(&doubled);
         let mut after = before.clone();
-        after.sort_spatially(&doubled);
+        after.sort_spatially(&doubled, ([0.0; 3], [3.0; 3]));
         assert_eq!(after.point_count(), 64);
         for v in 0..doubled.len() {
             for w in 0..doubled.len() {
@@ -253,11 +246,14 @@ mod tests {
         // tie-free order (x first).
         let tie = [[1.0e-4, 0.0, 0.0], [0.0, 0.0, 0.0], [1.0, 1.0, 1.0]];
         let mut w = Weld::exact(&tie);
-        w.sort_spatially(&tie);
+        w.sort_spatially(&tie, ([0.0; 3], [1.0; 3]));
         assert_eq!(w.point_of, vec![0, 1, 2]);
         // A single-point set keeps its order.
         let mut flat = Weld::exact(&[[1.0, 2.0, 3.0], [1.0, 2.0, 3.0]]);
-        flat.sort_spatially(&[[1.0, 2.0, 3.0], [1.0, 2.0, 3.0]]);
+        flat.sort_spatially(
+            &[[1.0, 2.0, 3.0], [1.0, 2.0, 3.0]],
+            ([1.0, 2.0, 3.0], [1.0, 2.0, 3.0]),
+        );
         assert_eq!(flat.point_of, vec![0, 0]);
     }
 }

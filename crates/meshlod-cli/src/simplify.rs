@@ -143,6 +143,16 @@ pub struct SimplifyArgs {
     /// facing away from the input back toward it without raising the distance).
     #[arg(long)]
     pub no_facing_repair: bool,
+    /// qem (optimal or midpoint placement): after simplifying, move the output's
+    /// points toward the input surface without raising the largest distance around
+    /// them (2 iterations; lowered the Hausdorff mean by 3-18% on the benchmark
+    /// meshes without raising their maximum beyond sampling noise, at 1.25-1.7x
+    /// the time).
+    #[arg(long)]
+    pub fit: bool,
+    /// qem: iterations of that fitting (implies --fit when above 0).
+    #[arg(long, value_name = "N")]
+    pub fit_iterations: Option<u32>,
     /// Write ASCII where the format has a choice (PLY, STL).
     #[arg(long)]
     pub ascii: bool,
@@ -251,6 +261,8 @@ struct CliReport {
     /// Times pairs rejected earlier were queued again once the queue's cost had
     /// grown past theirs (qem, melax).
     retries: usize,
+    /// Output points moved by the vertex fitting (qem).
+    fit_moved: usize,
     /// Output triangles facing away from the input before and after the repair.
     #[serde(skip_serializing_if = "Option::is_none")]
     facing_away: Option<[usize; 2]>,
@@ -427,6 +439,11 @@ fn options(args: &SimplifyArgs) -> Result<SimplifyOptions> {
         o = o.with_defer_slack(Some(s));
     }
     o = o.with_facing_repair(!args.no_facing_repair);
+    if let Some(n) = args.fit_iterations {
+        o = o.with_fit_iterations(n);
+    } else if args.fit {
+        o = o.with_fit_iterations(meshlod::simplify::DEFAULT_FIT_ITERATIONS);
+    }
     Ok(o.with_lock_boundary(args.lock_boundary))
 }
 
@@ -585,6 +602,7 @@ fn report(
         duplicate_removed: agg.duplicate,
         facing_flips: agg.facing_flips,
         retries: agg.retries,
+        fit_moved: agg.fit_moved,
         facing_away: agg.facing_away,
         hausdorff: measure.map(|d| {
             if args.absolute || d.bbox_diagonal <= 0.0 {
@@ -626,6 +644,7 @@ struct Aggregate {
     duplicate: usize,
     facing_flips: usize,
     retries: usize,
+    fit_moved: usize,
     facing_away: Option<[usize; 2]>,
     cluster: Option<ClusterStats>,
 }
@@ -651,6 +670,7 @@ impl Aggregate {
             duplicate: 0,
             facing_flips: 0,
             retries: 0,
+            fit_moved: 0,
             facing_away: None,
             cluster: None,
         }
@@ -680,6 +700,7 @@ impl Aggregate {
         self.duplicate += r.duplicate_removed;
         self.facing_flips += r.facing_flips;
         self.retries += r.retries;
+        self.fit_moved += r.fit_moved;
         if let Some([b, a]) = r.facing_away {
             let [sb, sa] = self.facing_away.get_or_insert([0, 0]);
             *sb += b;
@@ -808,6 +829,12 @@ fn print_text(r: &CliReport) {
         println!(
             "  orientation  {before} triangles facing away from the input, {after} after {} diagonal swaps",
             r.facing_flips
+        );
+    }
+    if r.fit_moved > 0 {
+        println!(
+            "  fitting      {} points moved toward the input",
+            r.fit_moved
         );
     }
     if let Some(d) = &r.measure {

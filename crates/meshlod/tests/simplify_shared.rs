@@ -1,7 +1,8 @@
 //! Simplification invariants on every mesh of the shared set (`../shared/meshes`) at
 //! ratios 0.5, 0.1 and 0.01: indices valid, no degenerate or duplicate triangles,
 //! the triangle count within 1% of the target or a stop reason that explains why
-//! not, no new boundary edges, no new non-manifold edges, and no fold-overs.
+//! not, no new boundary edges, no new non-manifold edges, and no fold-overs; the
+//! same at 0.1 and 0.01 with the vertex fitting (`SimplifyOptions::fit_iterations`).
 //!
 //! Fold-overs are measured like the peers benchmark's "flipped" column: an output
 //! triangle facing away from the original triangle closest to its centroid. That
@@ -133,6 +134,17 @@ fn shared_meshes_keep_invariants() {
         for ratio in [0.5, 0.1, 0.01] {
             let name = format!("{} @ {ratio}", row.file);
             match simplify(&mesh, &SimplifyOptions::default().with_ratio(ratio)) {
+                Ok((out, r)) => failures.extend(check(&name, &mesh, &repaired, &out, &r, &bvh)),
+                Err(e) => failures.push(format!("{name}: {e}")),
+            }
+        }
+        // The same invariants with the vertex fitting (`--fit`).
+        for ratio in [0.1, 0.01] {
+            let name = format!("{} @ {ratio} --fit", row.file);
+            let o = SimplifyOptions::default()
+                .with_ratio(ratio)
+                .with_fit_iterations(meshlod::simplify::DEFAULT_FIT_ITERATIONS);
+            match simplify(&mesh, &o) {
                 Ok((out, r)) => failures.extend(check(&name, &mesh, &repaired, &out, &r, &bvh)),
                 Err(e) => failures.push(format!("{name}: {e}")),
             }

@@ -83,6 +83,10 @@ pub struct BuildOptions<'a> {
     /// small hand-built tests rely on); [`crate::simplify()`] turns it on for the
     /// edge-collapse methods.
     pub spatial_order: bool,
+    /// Remember, for each point a collapse removes, the point it was merged into, so
+    /// that `Surface::vertex_roots` can say where every input vertex ended (4 bytes
+    /// a point, plus the input vertex → point map kept). Default `false`.
+    pub track_merges: bool,
 }
 
 /// What the up-front repair removed from the input.
@@ -150,6 +154,9 @@ pub struct Surface {
     slot: Vec<u32>,
     scratch_edges: Vec<EdgeScratch>,
     scratch_parent: Vec<u32>,
+    /// Per point, the point a collapse merged it into ([`DEAD`] while it lives);
+    /// empty unless [`BuildOptions::track_merges`].
+    merged: Vec<u32>,
     scratch_plans: Vec<(u32, [u32; 3], [f64; 3])>,
     kind_changed: [u32; 2],
     fold_angle: f64,
@@ -309,6 +316,11 @@ impl Surface {
             slot: vec![0; np],
             scratch_edges: Vec::new(),
             scratch_parent: Vec::new(),
+            merged: if options.track_merges {
+                vec![DEAD; np]
+            } else {
+                Vec::new()
+            },
             scratch_plans: Vec::new(),
             kind_changed: [DEAD; 2],
             fold_angle: f64::NAN,
@@ -362,7 +374,8 @@ impl Surface {
             }
         }
         // The wedge → point map is only needed to move seam wedges (non-edge pairs).
-        if s.tri_wedge.is_none() {
+        // (Kept to follow the merges.)
+        if s.tri_wedge.is_none() && !options.track_merges {
             s.wedge_point = Vec::new();
         }
         (s, repair)
@@ -1466,6 +1479,9 @@ impl Surface {
         self.fan_garbage += self.fan_slot[u as usize].cap as usize;
         self.fan_slot[u as usize].len = 0;
         self.fan_slot[u as usize].cap = 0;
+        if let Some(m) = self.merged.get_mut(u as usize) {
+            *m = v;
+        }
         self.pos[v as usize] = p;
 
         // Kinds: unchanged when everything around was manifold, otherwise recomputed.
@@ -1627,6 +1643,58 @@ impl Surface {
             }
         }
         (out, points, groups)
+    }
+
+    /// With [`BuildOptions::track_merges`]: for each input vertex, the live point it
+    /// ended in, following the merges of the collapses ([`DEAD`] where that point has
+    /// no triangle left, e.g. an unused or a degenerate-only vertex); `None` without
+    /// tracking. O(points + vertices).
+    pub(crate) fn vertex_roots(&self) -> Option<Vec<u32>> {
+        if self.merged.is_empty() || self.wedge_point.is_empty() {
+            return None;
+        }
+        // The end of each point's chain of merges, each chain walked once.
+        let mut end = vec![DEAD; self.merged.len()];
+        for p in 0..self.merged.len() as u32 {
+            if end[p as usize] != DEAD {
+                continue;
+            }
+            let mut r = p;
+            loop {
+                let e = end[r as usize];
+                if e != DEAD {
+                    r = e;
+                    break;
+                }
+                let m = self.merged[r as usize];
+                if m == DEAD {
+                    break;
+                }
+                r = m;
+            }
+            let mut q = p;
+            while end[q as usize] == DEAD {
+                end[q as usize] = r;
+                let m = self.merged[q as usize];
+                if m == DEAD {
+                    break;
+                }
+                q = m;
+            }
+        }
+        Some(
+            self.wedge_point
+                .iter()
+                .map(|&p| {
+                    let r = end.get(p as usize).copied().unwrap_or(DEAD);
+                    if r != DEAD && self.is_alive(r) {
+                        r
+                    } else {
+                        DEAD
+                    }
+                })
+                .collect(),
+        )
     }
 
     /// Takes the working attribute streams out (for building the output).

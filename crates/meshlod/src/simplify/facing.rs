@@ -85,7 +85,7 @@ fn dist_to_tri(p: V3, c: &[V3; 3]) -> f64 {
 
 struct Repair<'a> {
     input: &'a Mesh,
-    bvh: Bvh,
+    bvh: &'a Bvh,
     /// For each input vertex, one input triangle that uses it (its *owner*; `u32::MAX`
     /// for an unused vertex).
     tri_at: Vec<u32>,
@@ -124,11 +124,13 @@ impl Repair<'_> {
 }
 
 /// Runs the repair on `out` (the simplified mesh) against `input` (the mesh it was
-/// simplified from); `diag` is the input's bounding-box diagonal; `source[v]`, when
-/// given, is the input vertex output vertex `v` descends from (it only speeds the
-/// closest-point queries up).
+/// simplified from; `input_tree` is a closest-point tree over it, e.g.
+/// [`Bvh::build_morton`]); `diag` is the input's bounding-box diagonal; `source[v]`,
+/// when given, is the input vertex output vertex `v` descends from (it only speeds
+/// the closest-point queries up).
 pub(crate) fn repair(
     input: &Mesh,
+    input_tree: &Bvh,
     out: &mut Mesh,
     diag: f64,
     source: Option<&[u32]>,
@@ -147,7 +149,7 @@ pub(crate) fn repair(
     }
     let r = Repair {
         input,
-        bvh: Bvh::build_morton(&input.positions, &input.triangles),
+        bvh: input_tree,
         tri_at,
         min_area2: 1e-12 * diag * diag,
     };
@@ -458,10 +460,16 @@ mod tests {
         32f64.sqrt()
     }
 
+    /// The repair with a tree over `input`.
+    fn run(input: &Mesh, out: &mut Mesh, diag: f64) -> FacingRepair {
+        let tree = Bvh::build_morton(&input.positions, &input.triangles);
+        repair(input, &tree, out, diag, None)
+    }
+
     #[test]
     fn swap_unfolds_a_triangle_facing_away() {
         let mut out = folded(false);
-        let f = repair(&plane(), &mut out, diagonal(), None);
+        let f = run(&plane(), &mut out, diagonal());
         assert_eq!(
             f,
             FacingRepair {
@@ -481,7 +489,7 @@ mod tests {
     #[test]
     fn seams_and_group_borders_are_not_swapped() {
         let mut out = folded(true);
-        let f = repair(&plane(), &mut out, diagonal(), None);
+        let f = run(&plane(), &mut out, diagonal());
         assert_eq!(
             f,
             FacingRepair {
@@ -492,7 +500,7 @@ mod tests {
         );
         let mut out = folded(false);
         out.groups = Some(vec![0, 1]);
-        let f = repair(&plane(), &mut out, diagonal(), None);
+        let f = run(&plane(), &mut out, diagonal());
         assert_eq!(f.flips, 0);
         assert_eq!(out.triangles, folded(false).triangles);
     }
@@ -519,7 +527,7 @@ mod tests {
             triangles: vec![[0, 1, 2], [1, 0, 3]],
             ..Mesh::default()
         };
-        let f = repair(&input, &mut out, 3.0, None);
+        let f = run(&input, &mut out, 3.0);
         assert_eq!(f.flips, 0, "{f:?}");
     }
 }

@@ -785,16 +785,23 @@ pub fn simplify_observed(
     let tree = (facing_on || fit_on).then(|| Bvh::build_morton(&mesh.positions, &mesh.triangles));
     let fitted = match &tree {
         Some(tree) if fit_on => {
-            let locked = options.locked_vertices.as_deref();
-            let fixed = |v: usize| {
-                locked.is_some_and(|l| {
-                    vertex_source
-                        .get(v)
-                        .and_then(|&s| l.get(s as usize))
-                        .copied()
-                        .unwrap_or(false)
-                })
-            };
+            // Output vertices at a locked input vertex's point: the one descending
+            // from it, and the one it was "merged" into (itself, never moved; this
+            // also covers a locked duplicate of another input vertex).
+            let mut locked_out = vec![false; out.positions.len()];
+            if let Some(l) = options.locked_vertices.as_deref() {
+                for (v, &s) in vertex_source.iter().enumerate() {
+                    locked_out[v] = l.get(s as usize).copied().unwrap_or(false);
+                }
+                if let Some(m) = &merged_into {
+                    for (i, _) in l.iter().enumerate().filter(|(_, &b)| b) {
+                        if let Some(slot) = m.get(i).and_then(|&o| locked_out.get_mut(o as usize)) {
+                            *slot = true;
+                        }
+                    }
+                }
+            }
+            let fixed = |v: usize| locked_out[v];
             fit::fit(
                 mesh,
                 tree,

@@ -200,17 +200,28 @@ fn locked_vertices_stay_put() {
     for i in (0..mask.len()).step_by(7) {
         mask[i] = true;
     }
-    let (out, report) = simplify(
-        &sphere,
-        &SimplifyOptions::default()
-            .with_ratio(0.1)
-            .with_locked_vertices(mask.clone()),
-    )
-    .unwrap();
-    check_invariants(&sphere, &out, &report);
-    for (i, &l) in mask.iter().enumerate() {
-        if l {
-            assert!(out.positions.contains(&sphere.positions[i]));
+    // With and without the vertex fitting, which must not move them either (it
+    // moves other points: asserted through `fit_moved`, the locks are sparse).
+    for fit in [0, crate::simplify::DEFAULT_FIT_ITERATIONS] {
+        let sphere = generate::icosphere(4);
+        let mut mask = vec![false; sphere.positions.len()];
+        for i in (0..mask.len()).step_by(29) {
+            mask[i] = true;
+        }
+        let (out, report) = simplify(
+            &sphere,
+            &SimplifyOptions::default()
+                .with_ratio(0.1)
+                .with_locked_vertices(mask.clone())
+                .with_fit_iterations(fit),
+        )
+        .unwrap();
+        check_invariants(&sphere, &out, &report);
+        assert_eq!(report.fit_moved > 0, fit > 0, "fit {fit}");
+        for (i, &l) in mask.iter().enumerate() {
+            if l {
+                assert!(out.positions.contains(&sphere.positions[i]), "fit {fit}");
+            }
         }
     }
     let bad = simplify(

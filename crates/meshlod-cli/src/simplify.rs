@@ -146,7 +146,7 @@ pub struct SimplifyArgs {
     /// qem (optimal or midpoint placement): after simplifying, move the output's
     /// points toward the input surface without raising the largest distance around
     /// them (2 iterations; lowered the Hausdorff mean by 3-18% on the benchmark
-    /// meshes without raising their maximum beyond sampling noise, at 1.25-1.7x
+    /// meshes without raising their maximum beyond sampling noise, at 1.3-1.7x
     /// the time).
     #[arg(long)]
     pub fit: bool,

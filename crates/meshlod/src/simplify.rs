@@ -233,7 +233,7 @@ pub struct SimplifyOptions {
     /// any sample's distance past the largest around it, without turning a triangle
     /// by more than 60° and without turning one to face away from the input (see the
     /// `fit` module's rules). Borders, locked vertices and topology are kept. `0`
-    /// turns it off. Default 0 (off: it adds 25–70% to the run's time);
+    /// turns it off. Default 0 (off: it adds 30–70% to the run's time);
     /// [`DEFAULT_FIT_ITERATIONS`] (2) is what `meshlod simplify --fit` runs. The
     /// reported `error` stays the quadric error of the collapses.
     pub fit_iterations: u32,

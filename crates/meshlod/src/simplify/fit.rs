@@ -59,13 +59,15 @@
 //!
 //! Measured (`meshlod simplify --measure`, bunny, armadillo, Nefertiti, Lucy, turbine
 //! blade and fandisk at 10% and 1%): Hausdorff mean ×0.82–0.97 (geometric mean
-//! ×0.93), maximum ×0.71–1.01 (×0.905), for 1.25–1.46× the time of the
+//! ×0.93), maximum ×0.71–1.01 (×0.906), for 1.3–1.7× the time of the
 //! simplification alone; see the README.
 
+use crate::collapse::{closest_on_triangle, FanCsr};
 use crate::filter::triangle_quality;
 use crate::mesh::{Mesh, Weld};
 use crate::metrics::bvh::Bvh;
 use crate::metrics::triangle::{closest_point, cross, dot, sub, V3};
+use crate::quadric::{norm, Quadric};
 
 /// Iterations `meshlod simplify --fit` runs ([`crate::SimplifyOptions::fit_iterations`]
 /// is 0, off, by default).
@@ -115,26 +117,6 @@ fn f64v(p: [f32; 3]) -> V3 {
     p.map(f64::from)
 }
 
-fn norm(v: V3) -> f64 {
-    dot(v, v).sqrt()
-}
-
-/// Barycentric weights of `q` (a point of the triangle) on `c`.
-fn barycentric(c: &[V3; 3], q: V3) -> [f64; 3] {
-    let e0 = sub(c[1], c[0]);
-    let e1 = sub(c[2], c[0]);
-    let e2 = sub(q, c[0]);
-    let (d00, d01, d11) = (dot(e0, e0), dot(e0, e1), dot(e1, e1));
-    let (d20, d21) = (dot(e2, e0), dot(e2, e1));
-    let den = d00 * d11 - d01 * d01;
-    if den.is_nan() || den <= 0.0 {
-        return [1.0 / 3.0; 3];
-    }
-    let v = ((d11 * d20 - d01 * d21) / den).clamp(0.0, 1.0);
-    let w = ((d00 * d21 - d01 * d20) / den).clamp(0.0, 1.0 - v);
-    [1.0 - v - w, v, w]
-}
-
 /// A triangle prepared for projecting many points on it.
 struct Frame {
     c: [V3; 3],
@@ -163,11 +145,11 @@ impl Frame {
         }
     }
 
-    /// A point of the triangle near `p` and its barycentric weights: the
-    /// projection on the plane where it falls inside, otherwise the projection's
-    /// barycentric weights clamped to the triangle (not always the closest point,
-    /// but a point of the triangle, so its distance bounds the true one from
-    /// above). The centroid for a degenerate triangle.
+    /// The closest point of the triangle to `p` and its barycentric weights: the
+    /// projection on the plane where it falls inside (the common case, without
+    /// branches on regions), otherwise Ericson's closest point. The centroid for a
+    /// degenerate triangle (a point of it, so its distance still bounds the true
+    /// one from above).
     fn project(&self, p: V3) -> (V3, [f64; 3]) {
         let v = sub(p, self.c[0]);
         let (d20, d21) = (dot(v, self.e0), dot(v, self.e1));
@@ -177,8 +159,7 @@ impl Frame {
         if self.inv == 0.0 {
             b = [1.0 / 3.0; 3];
         } else if b.iter().any(|&w| w < 0.0) {
-            let (q, _) = closest_point(p, self.c[0], self.c[1], self.c[2]);
-            return (q, barycentric(&self.c, q));
+            b = closest_on_triangle(p, self.c).1;
         }
         let q = std::array::from_fn(|k| {
             b[0] * self.c[0][k] + b[1] * self.c[1][k] + b[2] * self.c[2][k]
@@ -187,47 +168,25 @@ impl Frame {
     }
 }
 
-/// Solves the symmetric 3×3 system `m x = y`, or `None` when it is singular.
-fn solve3(m: &[[f64; 3]; 3], y: V3) -> Option<V3> {
-    let c0 = cross(m[1], m[2]);
-    let det = dot(m[0], c0);
-    if det == 0.0 || !det.is_finite() {
-        return None;
-    }
-    let c1 = cross(m[2], m[0]);
-    let c2 = cross(m[0], m[1]);
-    let x = [dot(c0, y) / det, dot(c1, y) / det, dot(c2, y) / det];
-    x.iter().all(|v| v.is_finite()).then_some(x)
-}
-
 /// The output's connectivity over points: fans (CSR) and, per triangle edge `k`
 /// (corners `k`, `k+1`), the triangle across it (`u32::MAX` on a border or a
 /// non-manifold edge); and which points sit on such an edge.
 struct Connectivity {
-    fan_start: Vec<u32>,
-    fan: Vec<u32>,
+    fans: FanCsr,
     across: Vec<[u32; 3]>,
     border: Vec<bool>,
 }
 
+impl Connectivity {
+    /// The triangles around point `p`.
+    fn fan(&self, p: usize) -> &[u32] {
+        let s = self.fans.start[p] as usize;
+        &self.fans.fans[s..s + self.fans.len[p] as usize]
+    }
+}
+
 fn connectivity(tris: &[[u32; 3]], np: usize) -> Connectivity {
-    let mut fan_start = vec![0u32; np + 1];
-    for t in tris {
-        for &p in t {
-            fan_start[p as usize + 1] += 1;
-        }
-    }
-    for i in 0..np {
-        fan_start[i + 1] += fan_start[i];
-    }
-    let mut fill = fan_start.clone();
-    let mut fan = vec![0u32; fan_start[np] as usize];
-    for (t, tri) in tris.iter().enumerate() {
-        for &p in tri {
-            fan[fill[p as usize] as usize] = t as u32;
-            fill[p as usize] += 1;
-        }
-    }
+    let fans = FanCsr::build(np, tris, |t| Some(*t));
     // Undirected edges with their (triangle, corner), sorted; runs of two are
     // interior edges.
     let mut edges: Vec<(u64, u32)> = Vec::with_capacity(tris.len() * 3);
@@ -262,8 +221,7 @@ fn connectivity(tris: &[[u32; 3]], np: usize) -> Connectivity {
         i = j;
     }
     Connectivity {
-        fan_start,
-        fan,
+        fans,
         across,
         border,
     }
@@ -307,7 +265,7 @@ pub(crate) fn fit(
     // Fixed points: borders and non-manifold edges, locked vertices, points no
     // triangle uses.
     let mut fixed: Vec<bool> = (0..np)
-        .map(|p| conn.border[p] || conn.fan_start[p] == conn.fan_start[p + 1])
+        .map(|p| conn.border[p] || conn.fan(p).is_empty())
         .collect();
     for (v, &p) in point_of.iter().enumerate() {
         if fixed_vertex(v) {
@@ -415,7 +373,7 @@ pub(crate) fn fit(
         let dist = |t: u32, best: f64| tri_dist(p, t, best, x);
         for s in starts.iter().flatten() {
             let s = *s as usize;
-            for &t in &conn.fan[conn.fan_start[s] as usize..conn.fan_start[s + 1] as usize] {
+            for &t in conn.fan(s) {
                 if accept(p, t) {
                     return Some(t);
                 }
@@ -428,7 +386,7 @@ pub(crate) fn fit(
                 continue;
             }
             let s = s as usize;
-            for &t in &conn.fan[conn.fan_start[s] as usize..conn.fan_start[s + 1] as usize] {
+            for &t in conn.fan(s) {
                 let d = dist(t, best.0);
                 if d < best.0 {
                     best = (d, t);
@@ -582,20 +540,17 @@ pub(crate) fn fit(
     }
     drop(tri_at);
 
-    let mut moved = vec![false; np];
     let x0 = x.clone();
     let mut proj = vec![Projected::default(); samples.len()];
     let mut normals: Vec<V3> = vec![[0.0; 3]; tris.len()];
-    let mut a_sum: Vec<[f64; 6]> = vec![[0.0; 6]; np];
-    let mut g_sum: Vec<V3> = vec![[0.0; 3]; np];
+    let mut quad: Vec<Quadric> = vec![Quadric::ZERO; np];
     let mut step: Vec<V3> = vec![[0.0; 3]; np];
     let mut scale: Vec<f64> = vec![0.0; np];
     let mut local_max: Vec<f64> = vec![0.0; np];
     let mut bad = vec![false; np];
     for _ in 0..iterations {
         stats.iterations += 1;
-        a_sum.fill([0.0; 6]);
-        g_sum.fill([0.0; 3]);
+        quad.fill(Quadric::ZERO);
         local_max.fill(0.0);
         for (n, t) in normals.iter_mut().zip(&tris) {
             let c = t.map(|q| x[q as usize]);
@@ -613,14 +568,6 @@ pub(crate) fn fit(
             let nn = normals[tri];
             let l = norm(nn);
             let n = if l > 0.0 { nn.map(|v| v / l) } else { [0.0; 3] };
-            let nnt = [
-                n[0] * n[0],
-                n[0] * n[1],
-                n[0] * n[2],
-                n[1] * n[1],
-                n[1] * n[2],
-                n[2] * n[2],
-            ];
             let mut wb = [0.0f64; 3];
             let mut wbr = [0.0f64; 3];
             let mut dmax = 0.0f64;
@@ -646,12 +593,11 @@ pub(crate) fn fit(
             for k in 0..3 {
                 let v = t[k] as usize;
                 local_max[v] = local_max[v].max(dmax);
-                let a = &mut a_sum[v];
-                for j in 0..6 {
-                    a[j] += wb[k] * nnt[j];
-                }
-                for j in 0..3 {
-                    g_sum[v][j] += wbr[k] * n[j];
+                // Σ w b (n·(y − x_v) + r)² over the samples, as the plane quadric of
+                // weight Σ w b whose offset is their weighted mean residual.
+                if wb[k] > 0.0 {
+                    let d = wbr[k] / wb[k] - dot(n, x[v]);
+                    quad[v].add(&Quadric::from_plane(n, d, wb[k]));
                 }
             }
             s0 = s1;
@@ -663,19 +609,19 @@ pub(crate) fn fit(
                 continue;
             }
             local_max[p] = local_max[p].max(norm(sub(x[p], target[p])));
-            let a = a_sum[p];
-            let tr = a[0] + a[3] + a[5];
+            let mut q = quad[p];
+            let tr = q.m[0] + q.m[4] + q.m[7];
             if tr.is_nan() || tr <= 0.0 {
                 continue;
             }
-            let ridge = RIDGE * tr;
-            let m = [
-                [a[0] + ridge, a[1], a[2]],
-                [a[1], a[3] + ridge, a[4]],
-                [a[2], a[4], a[5] + ridge],
-            ];
-            if let Some(d) = solve3(&m, g_sum[p]) {
-                step[p] = d.map(|v| -DAMPING * v);
+            // The ridge: the squared distance to the point itself, three axis planes.
+            for k in 0..3 {
+                let mut e = [0.0; 3];
+                e[k] = 1.0;
+                q.add(&Quadric::from_plane(e, -x[p][k], RIDGE * tr));
+            }
+            if let Some(y) = q.solve(x[p], 0.0) {
+                step[p] = sub(y, x[p]).map(|v| DAMPING * v);
                 scale[p] = 1.0;
             }
         }
@@ -770,7 +716,6 @@ pub(crate) fn fit(
                 for j in 0..3 {
                     x[p][j] += scale[p] * step[p][j];
                 }
-                moved[p] = true;
                 any = true;
             }
         }
@@ -817,20 +762,15 @@ pub(crate) fn fit(
         for &p in &back {
             x[p as usize] = x0[p as usize];
             let p = p as usize;
-            check.extend_from_slice(
-                &conn.fan[conn.fan_start[p] as usize..conn.fan_start[p + 1] as usize],
-            );
+            check.extend_from_slice(conn.fan(p));
         }
         check.sort_unstable();
         check.dedup();
     }
-    for p in 0..np {
-        moved[p] = x[p] != x0[p];
-    }
-    stats.moved = moved.iter().filter(|&&m| m).count();
+    stats.moved = (0..np).filter(|&p| x[p] != x0[p]).count();
     for (v, pos) in out.positions.iter_mut().enumerate() {
         let p = point_of[v] as usize;
-        if moved[p] {
+        if x[p] != x0[p] {
             *pos = x[p].map(|c| c as f32);
         }
     }

@@ -29,7 +29,9 @@
 //!    sample is projected on its output triangle (point `q`, barycentric weights `b`,
 //!    unit normal `n`; residual `r = n·(q − p)`, the point-to-plane distance of Chen
 //!    & Medioni's ICP). Each corner `v` gathers `A_v = Σ w b_v n nᵀ` and
-//!    `g_v = Σ w b_v r n` and steps by `Δ_v = −¾ (A_v + 10⁻³ tr(A_v) I)⁻¹ g_v`: the
+//!    `g_v = Σ w b_v r n` and steps by `Δ_v = −¾ (A_v + 10⁻³ tr(A_v) I)⁻¹ g_v`, ¾ of
+//!    the way to the minimiser of a [`Quadric`] of its samples' planes plus a small
+//!    ridge ([`Quadric::solve`]): the
 //!    weighted mean of its samples' residuals along their normals (weights `b_v`,
 //!    not `b_v²`, so that three corners moving at once do not overshoot; damped, as
 //!    in a Jacobi iteration; the small ridge keeps the step along the normals where

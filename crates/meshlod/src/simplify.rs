@@ -812,8 +812,9 @@ pub fn simplify_observed(
                 merged_into.as_deref(),
             )
         }
-        _ => fit::FitStats::default(),
+        _ => (fit::FitStats::default(), Vec::new()),
     };
+    let (fitted, known) = fitted;
     let facing = match &tree {
         Some(tree) if facing_on => Some(facing::repair(
             mesh,
@@ -821,6 +822,7 @@ pub fn simplify_observed(
             &mut out,
             diag,
             Some(&vertex_source),
+            Some(&known),
         )),
         _ => None,
     };

@@ -55,7 +55,7 @@ pub enum Region {
 
 /// Closest point to `p` on triangle `(a, b, c)` and the region it lies in.
 #[must_use]
-#[inline]
+#[inline(always)]
 pub fn closest_point(p: V3, a: V3, b: V3, c: V3) -> (V3, Region) {
     let ab = sub(b, a);
     let ac = sub(c, a);

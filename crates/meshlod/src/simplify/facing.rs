@@ -42,7 +42,7 @@
 
 use crate::filter::triangle_quality;
 use crate::mesh::{Mesh, Weld};
-use crate::metrics::bvh::Bvh;
+use crate::metrics::bvh::{Bvh, Closest};
 use crate::metrics::triangle::{closest_point, cross, dist2, dot, sub, V3};
 
 /// What the repair did.
@@ -79,6 +79,20 @@ fn lerp3(c: &[V3; 3], w: [f64; 3]) -> V3 {
     std::array::from_fn(|k| w[0] * c[0][k] + w[1] * c[1][k] + w[2] * c[2][k])
 }
 
+/// The point of a triangle whose nearest input triangle decides whether it faces
+/// away (its centroid, computed as every query of this module computes it).
+pub(crate) fn centroid(corners: &[V3; 3]) -> V3 {
+    lerp3(corners, SAMPLES[0])
+}
+
+/// Answers already known for some output triangles: `(centroid, nearest input
+/// point)` at the index of the triangle, from an earlier pass (the vertex fitting's
+/// orientation guard queries the same points). An entry is used only when the
+/// triangle's centroid is still bit for bit the one it was found for; the tree's
+/// answer does not depend on the query's hint ([`Bvh::closest`]), so the repair
+/// decides exactly as if it had asked itself.
+pub(crate) type KnownNearest = Vec<Option<(V3, Closest)>>;
+
 fn dist_to_tri(p: V3, c: &[V3; 3]) -> f64 {
     dist2(p, closest_point(p, c[0], c[1], c[2]).0).sqrt()
 }
@@ -97,9 +111,24 @@ impl Repair<'_> {
     /// Whether the triangle with `corners` faces away from the input triangle closest
     /// to its centroid, and its centroid's distance to the input.
     fn facing(&self, corners: &[V3; 3], hint: &mut Option<u32>) -> (bool, f64) {
+        self.facing_known(corners, hint, None)
+    }
+
+    /// [`Self::facing`], with the nearest input point taken from `known` where that
+    /// was found for this very centroid.
+    fn facing_known(
+        &self,
+        corners: &[V3; 3],
+        hint: &mut Option<u32>,
+        known: Option<&(V3, Closest)>,
+    ) -> (bool, f64) {
         let n = cross(sub(corners[1], corners[0]), sub(corners[2], corners[0]));
-        let centroid = lerp3(corners, SAMPLES[0]);
-        let Some(cl) = self.bvh.closest(centroid, *hint) else {
+        let centroid = centroid(corners);
+        let found = match known {
+            Some(&(c, cl)) if c == centroid => Some(cl),
+            _ => self.bvh.closest(centroid, *hint),
+        };
+        let Some(cl) = found else {
             return (false, 0.0);
         };
         *hint = Some(cl.triangle);
@@ -126,14 +155,16 @@ impl Repair<'_> {
 /// Runs the repair on `out` (the simplified mesh) against `input` (the mesh it was
 /// simplified from; `input_tree` is a closest-point tree over it, e.g.
 /// [`Bvh::build_morton`]); `diag` is the input's bounding-box diagonal; `source[v]`,
-/// when given, is the input vertex output vertex `v` descends from (it only speeds
-/// the closest-point queries up).
+/// when given, is the input vertex output vertex `v` descends from, and `known` the
+/// nearest input points some triangles' centroids already have ([`KnownNearest`]);
+/// both only save closest-point queries.
 pub(crate) fn repair(
     input: &Mesh,
     input_tree: &Bvh,
     out: &mut Mesh,
     diag: f64,
     source: Option<&[u32]>,
+    known: Option<&KnownNearest>,
 ) -> FacingRepair {
     let mut stats = FacingRepair::default();
     if out.triangles.is_empty() || input.triangles.is_empty() || diag.is_nan() || diag <= 0.0 {
@@ -166,7 +197,8 @@ pub(crate) fn repair(
     let mut g = 0.0f64;
     for t in 0..out.triangles.len() {
         let mut hint = start(out, t);
-        let (a, d) = r.facing(&corners_of(out, t), &mut hint);
+        let k = known.and_then(|k| k.get(t)).and_then(Option::as_ref);
+        let (a, d) = r.facing_known(&corners_of(out, t), &mut hint, k);
         g = g.max(d);
         if a {
             away.push(t as u32);
@@ -463,7 +495,7 @@ mod tests {
     /// The repair with a tree over `input`.
     fn run(input: &Mesh, out: &mut Mesh, diag: f64) -> FacingRepair {
         let tree = Bvh::build_morton(&input.positions, &input.triangles);
-        repair(input, &tree, out, diag, None)
+        repair(input, &tree, out, diag, None, None)
     }
 
     #[test]
@@ -484,6 +516,57 @@ mod tests {
             let c = t.map(|v| f64v(out.positions[v as usize]));
             assert!(cross(sub(c[1], c[0]), sub(c[2], c[0]))[2] > 0.0);
         }
+    }
+
+    /// Known answers are taken only where the centroid is the one they were found
+    /// for. The input is the plane plus a far triangle facing −z (index 2); a
+    /// known answer naming it for the folded triangle `s` (which faces −z) makes
+    /// `s` count as facing the input, while the same answer recorded at another
+    /// centroid is ignored, and true answers change nothing.
+    #[test]
+    fn known_answers_only_for_their_own_centroid() {
+        let mut input = plane();
+        input
+            .positions
+            .extend([[0.0, 0.0, 9.0], [0.0, 1.0, 9.0], [1.0, 0.0, 9.0]]);
+        input.triangles.push([4, 5, 6]);
+        let tree = Bvh::build_morton(&input.positions, &input.triangles);
+        let out0 = folded(false);
+        let corners = |t: usize| out0.triangles[t].map(|v| f64v(out0.positions[v as usize]));
+        let truth: KnownNearest = (0..2)
+            .map(|t| {
+                let c = centroid(&corners(t));
+                Some((c, tree.closest(c, None).unwrap()))
+            })
+            .collect();
+        let plain = {
+            let mut out = folded(false);
+            (repair(&input, &tree, &mut out, diagonal(), None, None), out)
+        };
+        assert_eq!(plain.0.before, 1);
+        let with = |known: &KnownNearest| {
+            let mut out = folded(false);
+            (
+                repair(&input, &tree, &mut out, diagonal(), None, Some(known)),
+                out,
+            )
+        };
+        let same = with(&truth);
+        assert_eq!((same.0, &same.1.triangles), (plain.0, &plain.1.triangles));
+        let c1 = centroid(&corners(1));
+        let poisoned = |at: V3| -> KnownNearest {
+            let mut k = truth.clone();
+            let far = Closest {
+                dist2: 81.0,
+                point: [0.0, 0.0, 9.0],
+                triangle: 2,
+            };
+            k[1] = Some((at, far));
+            k
+        };
+        assert_eq!(with(&poisoned(c1)).0.before, 0, "a matching entry is used");
+        let stale = with(&poisoned([c1[0] + 1e-9, c1[1], c1[2]]));
+        assert_eq!((stale.0, &stale.1.triangles), (plain.0, &plain.1.triangles));
     }
 
     #[test]

@@ -22,9 +22,11 @@
 //!    sample projects inside it farther from each edge than from its plane, otherwise
 //!    the nearest candidate is walked across edges while a neighbour is nearer
 //!    (bounding spheres skip the hopeless ones). A closest-point query over the
-//!    output where no merge is known. Each free output point also gets its nearest
-//!    input point (one query against the input's tree, shared with the orientation
-//!    repair), for the guard below.
+//!    output where no merge is known. The samples are then stored grouped by
+//!    output triangle (position and weight, 16 bytes each: a stable counting sort
+//!    that makes them a second time straight into their slots, without a copy).
+//!    Each free output point also gets its nearest input point (one query against
+//!    the input's tree, shared with the orientation repair), for the guard below.
 //! 2. **Step.** In each iteration ([`DEFAULT_FIT_ITERATIONS`] by default), each
 //!    sample is projected on its output triangle (point `q`, barycentric weights `b`,
 //!    unit normal `n`; residual `r = n·(q − p)`, the point-to-plane distance of Chen
@@ -43,6 +45,9 @@
 //!    A sample whose bound exceeds both its own distance and the local maxima of its
 //!    corners halves the steps of its corners (up to four times, then cancels them),
 //!    so the largest distance of the samples, in either direction, does not grow.
+//!    Each round after the first tests again only the triangles around a halved
+//!    step (the others passed and are unchanged), and the samples' projections are
+//!    computed again rather than stored (bit for bit the same values).
 //! 4. **Guard (shape).** A step that would turn a triangle by more than 60°, lower
 //!    its quality ([`triangle_quality`]) below both half its old quality and the
 //!    simplifier's sliver floor, or turn it away from the input triangle nearest its
@@ -50,9 +55,10 @@
 //!    corners.
 //! 5. **Guard (orientation).** After the iterations, a moved triangle that faces
 //!    away from the input triangle nearest its centroid (the orientation repair's
-//!    test, one query each, only for triangles leaning more than 60° from their
-//!    reference normal) and did not before puts its points back where the collapses
-//!    left them.
+//!    test: one query each, on the positions as they will be stored) and did not
+//!    before puts its points back where the collapses left them. The answers go to
+//!    the orientation repair, which then asks the tree only for the triangles the
+//!    fit did not move ([`facing::KnownNearest`]).
 //!
 //! Fixed: points on a border or a non-manifold edge (borders keep the positions the
 //! collapses gave them), points of locked input vertices, and points without samples.
@@ -70,6 +76,8 @@ use crate::mesh::{Mesh, Weld};
 use crate::metrics::bvh::Bvh;
 use crate::metrics::triangle::{closest_point, cross, dot, sub, V3};
 use crate::quadric::{norm, Quadric};
+
+use super::facing::{self, KnownNearest};
 
 /// Iterations `meshlod simplify --fit` runs ([`crate::SimplifyOptions::fit_iterations`]
 /// is 0, off, by default).
@@ -95,24 +103,43 @@ pub(crate) struct FitStats {
     pub iterations: u32,
 }
 
-/// A point of the input surface and the output triangle it corresponds to.
-#[derive(Clone, Copy)]
+/// A point of the input surface; the samples are stored grouped by the output
+/// triangle they correspond to (`tri_start` in [`fit`]).
+#[derive(Clone, Copy, Default)]
 struct Sample {
     /// Position.
     p: [f32; 3],
     /// Weight (an area).
     weight: f32,
-    /// Output triangle.
-    triangle: u32,
 }
 
 /// A sample's state for the guard: its offset from the input point to its output
-/// point, its barycentric weights there, and that distance.
-#[derive(Clone, Copy, Default)]
+/// point, its barycentric weights there, and that distance (each rounded to `f32`).
+#[derive(Clone, Copy)]
 struct Projected {
-    offset: [f32; 3],
-    bary: [f32; 3],
-    dist: f32,
+    offset: [f64; 3],
+    bary: [f64; 3],
+    dist: f64,
+}
+
+impl Projected {
+    /// The sample at `p` projected on `frame`'s triangle.
+    fn new(frame: &Frame, p: V3) -> (Self, V3, [f64; 3], f64) {
+        let (q, b) = frame.project(p);
+        let off = sub(q, p);
+        let d = norm(off);
+        let r = |v: f64| f64::from(v as f32);
+        (
+            Self {
+                offset: off.map(r),
+                bary: b.map(r),
+                dist: r(d),
+            },
+            off,
+            b,
+            d,
+        )
+    }
 }
 
 fn f64v(p: [f32; 3]) -> V3 {
@@ -235,7 +262,9 @@ fn connectivity(tris: &[[u32; 3]], np: usize) -> Connectivity {
 /// must keep its position (locked); `min_quality` is the simplifier's sliver floor;
 /// `merged_into[i]`, when given, is the output vertex input vertex `i` was merged
 /// into (`u32::MAX` for none), where the search for its samples' triangles starts
-/// (without it, or where it says none, a closest-point query finds them).
+/// (without it, or where it says none, a closest-point query finds them). Also
+/// returns the nearest input points the orientation guard found for the
+/// triangles' centroids, for [`facing::repair`].
 pub(crate) fn fit(
     input: &Mesh,
     input_tree: &Bvh,
@@ -244,10 +273,10 @@ pub(crate) fn fit(
     iterations: u32,
     min_quality: f64,
     merged_into: Option<&[u32]>,
-) -> FitStats {
+) -> (FitStats, KnownNearest) {
     let mut stats = FitStats::default();
     if iterations == 0 || out.triangles.is_empty() || input.triangles.is_empty() {
-        return stats;
+        return (stats, Vec::new());
     }
     let weld = Weld::exact(&out.positions);
     let point_of = &weld.point_of;
@@ -275,7 +304,7 @@ pub(crate) fn fit(
         }
     }
     if fixed.iter().all(|&f| f) {
-        return stats;
+        return (stats, Vec::new());
     }
 
     // Samples: every used input vertex (a third of its triangles' area) and every
@@ -285,7 +314,10 @@ pub(crate) fn fit(
     // closest-point query where no such point is known.
     let ip = &input.positions;
     let mut vweight = vec![0.0f32; ip.len()];
-    let mut samples: Vec<Sample> = Vec::with_capacity(ip.len() + input.triangles.len());
+    // The output triangle of each sample, in the order they are found (vertices,
+    // then centroids; `u32::MAX` where none was found); the samples themselves are
+    // written afterwards straight into their groups.
+    let mut sample_tri: Vec<u32> = Vec::with_capacity(ip.len() + input.triangles.len());
     // Per output triangle: the normal of the input triangle nearest its centroid
     // among those whose centroids it received (the orientation repair's test, see
     // the `facing` module), and that squared distance.
@@ -431,25 +463,28 @@ pub(crate) fn fit(
             } else {
                 locate(p, &[start_point(i as u32)], &x)
             };
+            sample_tri.push(found.unwrap_or(u32::MAX));
             if let Some(tri) = found {
                 last = tri;
                 vtri[i] = tri;
-                samples.push(Sample {
-                    p: ip[i],
-                    weight: w,
-                    triangle: tri,
-                });
             }
         }
     }
-    for t in &input.triangles {
+    // An input triangle's normal, area and centroid, or `None` for a degenerate one.
+    let centroid_sample = |t: &[u32; 3]| -> Option<(V3, f64, V3)> {
         let c = t.map(|v| f64v(ip[v as usize]));
         let n = cross(sub(c[1], c[0]), sub(c[2], c[0]));
         let area = norm(n) / 2.0;
         if area.is_nan() || area <= 0.0 {
-            continue;
+            return None;
         }
         let centroid: V3 = std::array::from_fn(|k| (c[0][k] + c[1][k] + c[2][k]) / 3.0);
+        Some((n, area, centroid))
+    };
+    for t in &input.triangles {
+        let Some((n, _, centroid)) = centroid_sample(t) else {
+            continue;
+        };
         let mut best = (f64::INFINITY, u32::MAX);
         let first = t
             .iter()
@@ -473,6 +508,7 @@ pub(crate) fn fit(
             }
         }
         if best.1 == u32::MAX {
+            sample_tri.push(u32::MAX);
             continue;
         }
         let tri = if best.0 == 0.0 && best.1 == first {
@@ -480,11 +516,7 @@ pub(crate) fn fit(
         } else {
             walk(centroid, best, &x)
         };
-        samples.push(Sample {
-            p: centroid.map(|v| v as f32),
-            weight: area as f32,
-            triangle: tri,
-        });
+        sample_tri.push(tri);
         let oc = tris[tri as usize].map(|q| x[q as usize]);
         let d = sub(
             centroid,
@@ -496,33 +528,46 @@ pub(crate) fn fit(
         }
     }
     drop(vtri);
-    drop(vweight);
     drop(out_tree);
-    // Grouped by triangle (a counting sort), so each triangle's corners are loaded
-    // once per pass.
-    {
-        let mut start = vec![0u32; tris.len() + 1];
-        for s in &samples {
-            start[s.triangle as usize + 1] += 1;
-        }
-        for i in 0..tris.len() {
-            start[i + 1] += start[i];
-        }
-        let mut sorted = vec![
-            Sample {
-                p: [0.0; 3],
-                weight: 0.0,
-                triangle: 0
-            };
-            samples.len()
-        ];
-        for s in &samples {
-            let slot = &mut start[s.triangle as usize];
-            sorted[*slot as usize] = *s;
-            *slot += 1;
-        }
-        samples = sorted;
+    // Grouped by triangle (a counting sort, stable), so each triangle's corners
+    // are loaded once per pass: `tri_start[t]..tri_start[t + 1]` are the samples of
+    // output triangle `t`. The samples are made again in the order they were found
+    // and written to their slots.
+    let mut tri_start = vec![0u32; tris.len() + 1];
+    for &t in sample_tri.iter().filter(|&&t| t != u32::MAX) {
+        tri_start[t as usize + 1] += 1;
     }
+    for i in 0..tris.len() {
+        tri_start[i + 1] += tri_start[i];
+    }
+    let mut samples = vec![Sample::default(); tri_start[tris.len()] as usize];
+    {
+        let mut slot = tri_start.clone();
+        let made = vweight
+            .iter()
+            .enumerate()
+            .filter(|(_, &w)| w > 0.0)
+            .map(|(i, &w)| Sample {
+                p: ip[i],
+                weight: w,
+            })
+            .chain(input.triangles.iter().filter_map(|t| {
+                let (_, area, centroid) = centroid_sample(t)?;
+                Some(Sample {
+                    p: centroid.map(|v| v as f32),
+                    weight: area as f32,
+                })
+            }));
+        for (sample, &t) in made.zip(&sample_tri) {
+            if t != u32::MAX {
+                let k = &mut slot[t as usize];
+                samples[*k as usize] = sample;
+                *k += 1;
+            }
+        }
+    }
+    drop(sample_tri);
+    drop(vweight);
     // Each free point's nearest input point (the output → input samples), the
     // query started at an input triangle of a vertex merged into it (else at the
     // previous answer).
@@ -543,13 +588,11 @@ pub(crate) fn fit(
     drop(tri_at);
 
     let x0 = x.clone();
-    let mut proj = vec![Projected::default(); samples.len()];
     let mut normals: Vec<V3> = vec![[0.0; 3]; tris.len()];
     let mut quad: Vec<Quadric> = vec![Quadric::ZERO; np];
     let mut step: Vec<V3> = vec![[0.0; 3]; np];
     let mut scale: Vec<f64> = vec![0.0; np];
     let mut local_max: Vec<f64> = vec![0.0; np];
-    let mut bad = vec![false; np];
     for _ in 0..iterations {
         stats.iterations += 1;
         quad.fill(Quadric::ZERO);
@@ -558,14 +601,11 @@ pub(crate) fn fit(
             let c = t.map(|q| x[q as usize]);
             *n = cross(sub(c[1], c[0]), sub(c[2], c[0]));
         }
-        let mut s0 = 0;
-        while s0 < samples.len() {
-            let tri = samples[s0].triangle as usize;
-            let mut s1 = s0 + 1;
-            while s1 < samples.len() && samples[s1].triangle as usize == tri {
-                s1 += 1;
+        for (tri, &t) in tris.iter().enumerate() {
+            let range = tri_start[tri] as usize..tri_start[tri + 1] as usize;
+            if range.is_empty() {
+                continue;
             }
-            let t = tris[tri];
             let c = t.map(|q| x[q as usize]);
             let nn = normals[tri];
             let l = norm(nn);
@@ -574,16 +614,8 @@ pub(crate) fn fit(
             let mut wbr = [0.0f64; 3];
             let mut dmax = 0.0f64;
             let frame = Frame::new(&c);
-            for (s, pr) in samples[s0..s1].iter().zip(&mut proj[s0..s1]) {
-                let p = f64v(s.p);
-                let (q, b) = frame.project(p);
-                let off = sub(q, p);
-                let d = norm(off);
-                *pr = Projected {
-                    offset: off.map(|v| v as f32),
-                    bary: b.map(|v| v as f32),
-                    dist: d as f32,
-                };
+            for s in &samples[range] {
+                let (_, off, b, d) = Projected::new(&frame, f64v(s.p));
                 dmax = dmax.max(d);
                 let w = f64::from(s.weight);
                 let r = dot(n, off);
@@ -602,7 +634,6 @@ pub(crate) fn fit(
                     quad[v].add(&Quadric::from_plane(n, d, wb[k]));
                 }
             }
-            s0 = s1;
         }
         for p in 0..np {
             step[p] = [0.0; 3];
@@ -629,53 +660,84 @@ pub(crate) fn fit(
         }
         // Guard (Hausdorff): halve the steps that carry a sample past the local
         // maxima, then cancel them.
+        // Only the samples and points touching a step halved in the previous
+        // round can change their verdict: the others passed then and still do.
+        let mut changed: Vec<u32> = Vec::new();
         for round in 0..=HALVINGS {
-            bad.fill(false);
-            let mut any = false;
-            for (s, pr) in samples.iter().zip(&proj) {
-                let t = tris[s.triangle as usize];
+            let mut bad_points: Vec<u32> = Vec::new();
+            let test_triangle = |tri: usize, bad_points: &mut Vec<u32>| {
+                let t = tris[tri];
                 if t.iter().all(|&v| scale[v as usize] == 0.0) {
-                    continue;
+                    return;
                 }
-                let mut e = pr.offset.map(f64::from);
-                for (&v, &b) in t.iter().zip(&pr.bary) {
-                    let v = v as usize;
-                    let f = f64::from(b) * scale[v];
-                    for (ej, sj) in e.iter_mut().zip(step[v]) {
-                        *ej += f * sj;
+                let range = tri_start[tri] as usize..tri_start[tri + 1] as usize;
+                // The projections of the step's start, made again (as in the pass
+                // above) rather than stored: 28 bytes a sample saved.
+                let frame = Frame::new(&t.map(|q| x[q as usize]));
+                for s in &samples[range] {
+                    let (pr, ..) = Projected::new(&frame, f64v(s.p));
+                    let mut e = pr.offset;
+                    for (&v, &b) in t.iter().zip(&pr.bary) {
+                        let v = v as usize;
+                        let f = b * scale[v];
+                        for (ej, sj) in e.iter_mut().zip(step[v]) {
+                            *ej += f * sj;
+                        }
+                    }
+                    let limit = t
+                        .iter()
+                        .map(|&v| local_max[v as usize])
+                        .fold(pr.dist, f64::max);
+                    if dot(e, e) > limit * limit {
+                        bad_points.extend_from_slice(&t);
+                        return;
                     }
                 }
-                let limit = t
+            };
+            if round == 0 {
+                for tri in 0..tris.len() {
+                    test_triangle(tri, &mut bad_points);
+                }
+            } else {
+                let mut near: Vec<u32> = changed
                     .iter()
-                    .map(|&v| local_max[v as usize])
-                    .fold(f64::from(pr.dist), f64::max);
-                if dot(e, e) > limit * limit {
-                    for &v in &t {
-                        bad[v as usize] = true;
-                    }
-                    any = true;
+                    .flat_map(|&p| conn.fan(p as usize).iter().copied())
+                    .collect();
+                near.sort_unstable();
+                near.dedup();
+                for &tri in &near {
+                    test_triangle(tri as usize, &mut bad_points);
                 }
             }
-            for p in 0..np {
+            let moving: Box<dyn Iterator<Item = usize>> = if round == 0 {
+                Box::new(0..np)
+            } else {
+                Box::new(changed.iter().map(|&p| p as usize))
+            };
+            for p in moving {
                 if scale[p] > 0.0 {
                     let to: V3 = std::array::from_fn(|j| x[p][j] + scale[p] * step[p][j]);
                     if norm(sub(to, target[p])) > local_max[p] {
-                        bad[p] = true;
-                        any = true;
+                        bad_points.push(p as u32);
                     }
                 }
             }
-            if !any {
-                break;
-            }
-            for p in 0..np {
-                if bad[p] {
+            bad_points.sort_unstable();
+            bad_points.dedup();
+            changed.clear();
+            for &p in &bad_points {
+                let p = p as usize;
+                if scale[p] > 0.0 {
                     scale[p] = if round == HALVINGS {
                         0.0
                     } else {
                         scale[p] * 0.5
                     };
+                    changed.push(p as u32);
                 }
+            }
+            if changed.is_empty() {
+                break;
             }
         }
         // Guard (shape): cancel steps that turn, squash or turn away a triangle.
@@ -729,10 +791,15 @@ pub(crate) fn fit(
     // triangle nearest its centroid (the orientation repair's test) and did not
     // before puts its points back; then the triangles around those points are
     // checked again.
-    let faces_away = |c: &[V3; 3], hint: &mut Option<u32>| -> bool {
+    // Tested on the positions as they will be stored (`f32`), at the centroid the
+    // repair computes, so that the repair can reuse the answers (`known`).
+    let mut known: KnownNearest = vec![None; tris.len()];
+    let stored = |p: u32, x: &[V3]| x[p as usize].map(|c| f64::from(c as f32));
+    let mut faces_away = |tri: u32, c: &[V3; 3], hint: &mut Option<u32>| -> bool {
         let n = cross(sub(c[1], c[0]), sub(c[2], c[0]));
-        let m: V3 = std::array::from_fn(|k| (c[0][k] + c[1][k] + c[2][k]) / 3.0);
+        let m = facing::centroid(c);
         input_tree.closest(m, *hint).is_some_and(|cl| {
+            known[tri as usize] = Some((m, cl));
             *hint = Some(cl.triangle);
             let it = input.triangles[cl.triangle as usize].map(|v| f64v(ip[v as usize]));
             let r = cross(sub(it[1], it[0]), sub(it[2], it[0]));
@@ -754,8 +821,8 @@ pub(crate) fn fit(
             if !t.iter().any(|&p| x[p as usize] != x0[p as usize]) {
                 continue;
             }
-            if faces_away(&t.map(|p| x[p as usize]), &mut hint)
-                && !faces_away(&t.map(|p| x0[p as usize]), &mut hint)
+            if faces_away(tri, &t.map(|p| stored(p, &x)), &mut hint)
+                && !faces_away(tri, &t.map(|p| stored(p, &x0)), &mut hint)
             {
                 back.extend(t.iter().filter(|&&p| x[p as usize] != x0[p as usize]));
             }
@@ -776,7 +843,7 @@ pub(crate) fn fit(
             *pos = x[p].map(|c| c as f32);
         }
     }
-    stats
+    (stats, known)
 }
 
 #[cfg(test)]
@@ -833,7 +900,7 @@ mod tests {
             .collect();
         for map in [None, Some(merged.as_slice())] {
             let mut out = coarse.clone();
-            let stats = fit(&input, &tree, &mut out, &|_| false, 4, 0.1, map);
+            let (stats, _) = fit(&input, &tree, &mut out, &|_| false, 4, 0.1, map);
             assert_eq!(stats.moved, 1, "{map:?}");
             assert_eq!(out.triangles, coarse.triangles);
             for v in (0..9).filter(|&v| v != 4) {
@@ -856,10 +923,10 @@ mod tests {
         let tree = Bvh::build_morton(&input.positions, &input.triangles);
         let coarse = grid(3, |x, y| if x == 2.0 && y == 2.0 { 0.3 } else { 0.0 });
         let mut out = coarse.clone();
-        let stats = fit(&input, &tree, &mut out, &|v| v == 4, 4, 0.1, None);
+        let (stats, _) = fit(&input, &tree, &mut out, &|v| v == 4, 4, 0.1, None);
         assert_eq!(stats.moved, 0);
         assert_eq!(out.positions, coarse.positions);
-        let stats = fit(&input, &tree, &mut out, &|_| false, 0, 0.1, None);
+        let (stats, _) = fit(&input, &tree, &mut out, &|_| false, 0, 0.1, None);
         assert_eq!(stats, FitStats::default());
         assert_eq!(out.positions, coarse.positions);
     }

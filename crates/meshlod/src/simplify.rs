@@ -807,8 +807,7 @@ pub fn simplify_observed(
                 tree,
                 &mut out,
                 &fixed,
-                options.fit_iterations,
-                options.min_triangle_quality,
+                fit::FitParams::new(options.fit_iterations, options.min_triangle_quality),
                 merged_into.as_deref(),
             )
         }

@@ -802,6 +802,8 @@ pub fn simplify_observed(
                 }
             }
             let fixed = |v: usize| locked_out[v];
+            // The repair's query starts, so that it can reuse the fit's answers.
+            let starts = facing_on.then(|| facing::query_starts(mesh, &out, &vertex_source));
             fit::fit(
                 mesh,
                 tree,
@@ -809,6 +811,7 @@ pub fn simplify_observed(
                 &fixed,
                 fit::FitParams::new(options.fit_iterations, options.min_triangle_quality),
                 merged_into.as_deref(),
+                starts.as_deref(),
             )
         }
         _ => (fit::FitStats::default(), Vec::new()),

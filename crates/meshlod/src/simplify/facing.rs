@@ -88,10 +88,42 @@ pub(crate) fn centroid(corners: &[V3; 3]) -> V3 {
 /// Answers already known for some output triangles: `(centroid, nearest input
 /// point)` at the index of the triangle, from an earlier pass (the vertex fitting's
 /// orientation guard queries the same points). An entry is used only when the
-/// triangle's centroid is still bit for bit the one it was found for; the tree's
-/// answer does not depend on the query's hint ([`Bvh::closest`]), so the repair
-/// decides exactly as if it had asked itself.
+/// triangle's centroid is still bit for bit the one it was found for, and it must
+/// have been found with the hint the repair starts that triangle's query at
+/// ([`query_starts`]): the answer among equally near input triangles can depend on
+/// the hint ([`Bvh::closest`]), so the repair then decides exactly as if it had
+/// asked itself.
 pub(crate) type KnownNearest = Vec<Option<(V3, Closest)>>;
+
+/// For each input vertex, one input triangle that uses it (the last one in input
+/// order; `u32::MAX` for an unused vertex).
+fn owners(input: &Mesh) -> Vec<u32> {
+    let mut tri_at = vec![u32::MAX; input.positions.len()];
+    for (t, tri) in input.triangles.iter().enumerate() {
+        for &v in tri {
+            tri_at[v as usize] = t as u32;
+        }
+    }
+    tri_at
+}
+
+/// The input triangle at the input vertex an output triangle's first corner
+/// descends from (`source[v]`), for `triangles` of the output.
+fn start_at(tri_at: &[u32], source: Option<&[u32]>, triangle: &[u32; 3]) -> Option<u32> {
+    let v = source?.get(triangle[0] as usize)?;
+    tri_at.get(*v as usize).copied().filter(|&x| x != u32::MAX)
+}
+
+/// Where the repair starts the closest-point query of each triangle of `out`
+/// (simplified from `input`, `source[v]` the input vertex output vertex `v` descends
+/// from): the hint under which [`KnownNearest`] answers must be found.
+pub(crate) fn query_starts(input: &Mesh, out: &Mesh, source: &[u32]) -> Vec<Option<u32>> {
+    let tri_at = owners(input);
+    out.triangles
+        .iter()
+        .map(|t| start_at(&tri_at, Some(source), t))
+        .collect()
+}
 
 fn dist_to_tri(p: V3, c: &[V3; 3]) -> f64 {
     dist2(p, closest_point(p, c[0], c[1], c[2]).0).sqrt()
@@ -172,27 +204,15 @@ pub(crate) fn repair(
     }
     // A start for each output triangle's query: an input triangle at the input
     // vertex its first corner descends from.
-    let mut tri_at = vec![u32::MAX; input.positions.len()];
-    for (t, tri) in input.triangles.iter().enumerate() {
-        for &v in tri {
-            tri_at[v as usize] = t as u32;
-        }
-    }
     let r = Repair {
         input,
         bvh: input_tree,
-        tri_at,
+        tri_at: owners(input),
         min_area2: 1e-12 * diag * diag,
     };
     let corners_of =
         |out: &Mesh, t: usize| out.triangles[t].map(|v| f64v(out.positions[v as usize]));
-    let start = |out: &Mesh, t: usize| -> Option<u32> {
-        let v = source?.get(out.triangles[t][0] as usize)?;
-        r.tri_at
-            .get(*v as usize)
-            .copied()
-            .filter(|&x| x != u32::MAX)
-    };
+    let start = |out: &Mesh, t: usize| start_at(&r.tri_at, source, &out.triangles[t]);
     let mut away = Vec::new();
     let mut g = 0.0f64;
     for t in 0..out.triangles.len() {

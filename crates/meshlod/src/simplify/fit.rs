@@ -79,9 +79,11 @@
 //! position move together, so nothing tears. Topology and attributes are unchanged.
 //!
 //! Measured (`meshlod simplify --measure`, bunny, armadillo, Nefertiti, Lucy, turbine
-//! blade and fandisk at 10% and 1%): Hausdorff mean ×0.82–0.97 (geometric mean
-//! ×0.93), maximum ×0.71–1.01 (×0.906), for 1.3–1.7× the time of the
-//! simplification alone; see the README.
+//! blade and fandisk at 10% and 1%): with the input samples alone, Hausdorff mean
+//! ×0.82–0.97 (geometric mean ×0.93) and maximum ×0.71–1.01 (×0.906) against no
+//! fit; the output samples then took the maxima ×0.73–1.01 (×0.936) and the means
+//! ×0.935–1.002 (×0.981) further, for 1.3–2.0× the time of the simplification
+//! alone in all; see the README.
 
 use crate::collapse::{closest_on_triangle, FanCsr};
 use crate::filter::triangle_quality;
@@ -302,9 +304,9 @@ impl FitParams {
 /// with `params`). `fixed_vertex(v)` says whether output vertex `v` must keep its
 /// position (locked); `merged_into[i]`, when given, is the output vertex input vertex `i` was merged
 /// into (`u32::MAX` for none), where the search for its samples' triangles starts
-/// (without it, or where it says none, a closest-point query finds them). Also
-/// returns the nearest input points the orientation guard found for the
-/// triangles' centroids, for [`facing::repair`].
+/// (without it, or where it says none, a closest-point query finds them). With
+/// `starts` ([`facing::query_starts`]), also returns the nearest input points the
+/// orientation guard found for the triangles' centroids, for [`facing::repair`].
 pub(crate) fn fit(
     input: &Mesh,
     input_tree: &Bvh,
@@ -312,6 +314,7 @@ pub(crate) fn fit(
     fixed_vertex: &dyn Fn(usize) -> bool,
     params: FitParams,
     merged_into: Option<&[u32]>,
+    starts: Option<&[Option<u32>]>,
 ) -> (FitStats, KnownNearest) {
     let FitParams {
         iterations,
@@ -913,14 +916,21 @@ pub(crate) fn fit(
     // before puts its points back; then the triangles around those points are
     // checked again.
     // Tested on the positions as they will be stored (`f32`), at the centroid the
-    // repair computes, so that the repair can reuse the answers (`known`).
+    // repair computes and, where `starts` is given, with the repair's own hint, so
+    // that the repair can reuse the answers (`known`).
     let mut known: KnownNearest = vec![None; tris.len()];
     let stored = |p: u32, x: &[V3]| x[p as usize].map(|c| f64::from(c as f32));
     let mut faces_away = |tri: u32, c: &[V3; 3], hint: &mut Option<u32>| -> bool {
         let n = cross(sub(c[1], c[0]), sub(c[2], c[0]));
         let m = facing::centroid(c);
-        input_tree.closest(m, *hint).is_some_and(|cl| {
-            known[tri as usize] = Some((m, cl));
+        let start = match starts {
+            Some(st) => st.get(tri as usize).copied().flatten(),
+            None => *hint,
+        };
+        input_tree.closest(m, start).is_some_and(|cl| {
+            if starts.is_some() {
+                known[tri as usize] = Some((m, cl));
+            }
             *hint = Some(cl.triangle);
             let it = input.triangles[cl.triangle as usize].map(|v| f64v(ip[v as usize]));
             let r = cross(sub(it[1], it[0]), sub(it[2], it[0]));
@@ -1028,6 +1038,7 @@ mod tests {
                 &|_| false,
                 FitParams::new(4, 0.1),
                 map,
+                None,
             );
             assert_eq!(stats.moved, 1, "{map:?}");
             assert_eq!(out.triangles, coarse.triangles);
@@ -1086,7 +1097,7 @@ mod tests {
                 out_weight,
                 ..FitParams::new(2, 0.1)
             };
-            fit(&input, &tree, &mut out, &|_| false, params, None);
+            fit(&input, &tree, &mut out, &|_| false, params, None, None);
             out_to_in(&out)
         };
         let (before, without, with) = (out_to_in(&coarse), after(0.0), after(OUT_WEIGHT));
@@ -1110,6 +1121,7 @@ mod tests {
             &|v| v == 4,
             FitParams::new(4, 0.1),
             None,
+            None,
         );
         assert_eq!(stats.moved, 0);
         assert_eq!(out.positions, coarse.positions);
@@ -1119,6 +1131,7 @@ mod tests {
             &mut out,
             &|_| false,
             FitParams::new(0, 0.1),
+            None,
             None,
         );
         assert_eq!(stats, FitStats::default());

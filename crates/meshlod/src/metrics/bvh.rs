@@ -388,9 +388,10 @@ impl Bvh {
     /// triangle likely to be close (e.g. the answer of the previous, nearby query): it
     /// only speeds the search up: the distance is exact whatever it is. Where several
     /// triangles are equally near (two parts' faces lying on each other, a point
-    /// above a shared edge) the one returned can depend on the hint, which is then
-    /// a sensible tie-break for callers (the hint's own part wins); the same point
-    /// and hint always give the same answer.
+    /// above a shared edge) the one returned can depend on the hint, which tends to
+    /// keep the tie on the hint's side (the hint is tested first, and a box only as
+    /// near as the best so far is not opened); the same point and hint always give
+    /// the same answer.
     #[must_use]
     pub fn closest(&self, p: V3, hint: Option<u32>) -> Option<Closest> {
         // The AVX2 build where the CPU has it (`crate::isa`; same bits).

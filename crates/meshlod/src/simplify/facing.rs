@@ -88,7 +88,7 @@ pub(crate) fn centroid(corners: &[V3; 3]) -> V3 {
 /// Answers already known for some output triangles: `(centroid, nearest input
 /// point)` at the index of the triangle, from an earlier pass (the vertex fitting's
 /// orientation guard queries the same points). An entry is used only when the
-/// triangle's centroid is still bit for bit the one it was found for, and it must
+/// triangle's centroid still equals (`==`) the one it was found for, and it must
 /// have been found with the hint the repair starts that triangle's query at
 /// ([`query_starts`]): the answer among equally near input triangles can depend on
 /// the hint ([`Bvh::closest`]), so the repair then decides exactly as if it had

@@ -34,7 +34,7 @@
 //!    **Output samples** are made again in each iteration: each output triangle's
 //!    centroid and each edge's midpoint (an edge once for its two triangles), with
 //!    their nearest input points (queries against the input's tree, each started
-//!    at the input triangle the triangle's centroid found last).
+//!    at its own answer of the last iteration, or at its triangle's centroid's).
 //! 2. **Step.** In each iteration ([`DEFAULT_FIT_ITERATIONS`] by default), each
 //!    sample is projected on its output triangle (point `q`, barycentric weights `b`,
 //!    unit normal `n`; residual `r = n·(q − p)`, the point-to-plane distance of Chen
@@ -57,7 +57,10 @@
 //!    nearest input point.
 //!    A sample whose bound exceeds both its own distance and the local maxima of its
 //!    corners halves the steps of its corners (up to four times, then cancels them),
-//!    so the largest distance of the samples, in either direction, does not grow.
+//!    so the largest distance of the input samples and of the output points does
+//!    not grow. (The output samples only raise the local maxima; their own
+//!    distances after the step are not bounded, as the guard's bound would not be
+//!    one for them: they move with their triangle.)
 //!    Each round after the first tests again only the triangles around a halved
 //!    step (the others passed and are unchanged), and the samples' projections are
 //!    computed again rather than stored (bit for bit the same values).
@@ -74,7 +77,8 @@
 //!    fit did not move ([`facing::KnownNearest`]).
 //!
 //! Fixed: points on a border or a non-manifold edge (borders keep the positions the
-//! collapses gave them), points of locked input vertices, and points without samples.
+//! collapses gave them), points of locked input vertices, and points no triangle
+//! uses; a point whose samples give it nothing to fit (a zero quadric) stays too.
 //! Points, not vertices, move: the vertices of a UV seam or a material border at one
 //! position move together, so nothing tears. Topology and attributes are unchanged.
 //!
@@ -88,7 +92,7 @@
 use crate::collapse::{closest_on_triangle, FanCsr};
 use crate::filter::triangle_quality;
 use crate::mesh::{Mesh, Weld};
-use crate::metrics::bvh::Bvh;
+use crate::metrics::bvh::{Bvh, Closest};
 use crate::metrics::triangle::{closest_point, cross, dot, sub, V3};
 use crate::quadric::{norm, Quadric};
 
@@ -730,7 +734,9 @@ pub(crate) fn fit(
             // one), weighted by both triangles' areas.
             for k in 0..3 {
                 let other = conn.across[tri][k] as usize;
-                if other < tri && other != u32::MAX as usize {
+                // (The other triangle took it unless it was skipped: degenerate, or
+                // all its corners fixed, and then so are this edge's ends.)
+                if other < tri && other != u32::MAX as usize && area(other) > 0.0 {
                     continue;
                 }
                 let (a, b) = (t[k] as usize, t[(k + 1) % 3] as usize);
@@ -920,23 +926,24 @@ pub(crate) fn fit(
     // that the repair can reuse the answers (`known`).
     let mut known: KnownNearest = vec![None; tris.len()];
     let stored = |p: u32, x: &[V3]| x[p as usize].map(|c| f64::from(c as f32));
-    let mut faces_away = |tri: u32, c: &[V3; 3], hint: &mut Option<u32>| -> bool {
-        let n = cross(sub(c[1], c[0]), sub(c[2], c[0]));
-        let m = facing::centroid(c);
-        let start = match starts {
-            Some(st) => st.get(tri as usize).copied().flatten(),
-            None => *hint,
-        };
-        input_tree.closest(m, start).is_some_and(|cl| {
-            if starts.is_some() {
-                known[tri as usize] = Some((m, cl));
-            }
+    // Whether the triangle with corners `c` faces away, and the answer to keep.
+    let faces_away =
+        |tri: u32, c: &[V3; 3], hint: &mut Option<u32>| -> (bool, Option<(V3, Closest)>) {
+            let n = cross(sub(c[1], c[0]), sub(c[2], c[0]));
+            let m = facing::centroid(c);
+            let start = match starts {
+                Some(st) => st.get(tri as usize).copied().flatten(),
+                None => *hint,
+            };
+            let Some(cl) = input_tree.closest(m, start) else {
+                return (false, None);
+            };
             *hint = Some(cl.triangle);
             let it = input.triangles[cl.triangle as usize].map(|v| f64v(ip[v as usize]));
             let r = cross(sub(it[1], it[0]), sub(it[2], it[0]));
-            dot(n, n) > 0.0 && dot(n, r) < 0.0
-        })
-    };
+            let away = dot(n, n) > 0.0 && dot(n, r) < 0.0;
+            (away, starts.is_some().then_some((m, cl)))
+        };
     let mut check: Vec<u32> = (0..tris.len() as u32)
         .filter(|&t| {
             tris[t as usize]
@@ -952,10 +959,15 @@ pub(crate) fn fit(
             if !t.iter().any(|&p| x[p as usize] != x0[p as usize]) {
                 continue;
             }
-            if faces_away(tri, &t.map(|p| stored(p, &x)), &mut hint)
-                && !faces_away(tri, &t.map(|p| stored(p, &x0)), &mut hint)
-            {
-                back.extend(t.iter().filter(|&&p| x[p as usize] != x0[p as usize]));
+            // The answer kept is the one for where the triangle ends up.
+            let (away_now, answer) = faces_away(tri, &t.map(|p| stored(p, &x)), &mut hint);
+            known[tri as usize] = answer;
+            if away_now {
+                let (away_before, before) = faces_away(tri, &t.map(|p| stored(p, &x0)), &mut hint);
+                if !away_before {
+                    back.extend(t.iter().filter(|&&p| x[p as usize] != x0[p as usize]));
+                    known[tri as usize] = before;
+                }
             }
         }
         check.clear();

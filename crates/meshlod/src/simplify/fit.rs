@@ -993,6 +993,18 @@ pub(crate) fn fit(
 mod tests {
     use super::*;
 
+    /// The fitting of `out` toward `input` (a fresh tree over it, no query starts).
+    fn run(
+        input: &Mesh,
+        out: &mut Mesh,
+        fixed: &dyn Fn(usize) -> bool,
+        params: FitParams,
+        map: Option<&[u32]>,
+    ) -> FitStats {
+        let tree = Bvh::build_morton(&input.positions, &input.triangles);
+        fit(input, &tree, out, fixed, params, map, None).0
+    }
+
     /// An `n`×`n` grid of points over `[0, 4]²` at height `z(x, y)`, two triangles
     /// per cell, facing +z.
     fn grid(n: u32, z: impl Fn(f32, f32) -> f32) -> Mesh {
@@ -1030,7 +1042,6 @@ mod tests {
     #[test]
     fn a_lifted_point_is_pulled_back_and_the_border_stays() {
         let input = grid(9, |_, _| 0.0);
-        let tree = Bvh::build_morton(&input.positions, &input.triangles);
         let coarse = grid(3, |x, y| if x == 2.0 && y == 2.0 { 0.3 } else { 0.0 });
         // Each input vertex merged into the nearest coarse vertex.
         let merged: Vec<u32> = input
@@ -1043,15 +1054,7 @@ mod tests {
             .collect();
         for map in [None, Some(merged.as_slice())] {
             let mut out = coarse.clone();
-            let (stats, _) = fit(
-                &input,
-                &tree,
-                &mut out,
-                &|_| false,
-                FitParams::new(4, 0.1),
-                map,
-                None,
-            );
+            let stats = run(&input, &mut out, &|_| false, FitParams::new(4, 0.1), map);
             assert_eq!(stats.moved, 1, "{map:?}");
             assert_eq!(out.triangles, coarse.triangles);
             for v in (0..9).filter(|&v| v != 4) {
@@ -1109,7 +1112,7 @@ mod tests {
                 out_weight,
                 ..FitParams::new(2, 0.1)
             };
-            fit(&input, &tree, &mut out, &|_| false, params, None, None);
+            run(&input, &mut out, &|_| false, params, None);
             out_to_in(&out)
         };
         let (before, without, with) = (out_to_in(&coarse), after(0.0), after(OUT_WEIGHT));
@@ -1123,29 +1126,12 @@ mod tests {
     #[test]
     fn locked_points_and_zero_iterations_stay() {
         let input = grid(9, |_, _| 0.0);
-        let tree = Bvh::build_morton(&input.positions, &input.triangles);
         let coarse = grid(3, |x, y| if x == 2.0 && y == 2.0 { 0.3 } else { 0.0 });
         let mut out = coarse.clone();
-        let (stats, _) = fit(
-            &input,
-            &tree,
-            &mut out,
-            &|v| v == 4,
-            FitParams::new(4, 0.1),
-            None,
-            None,
-        );
+        let stats = run(&input, &mut out, &|v| v == 4, FitParams::new(4, 0.1), None);
         assert_eq!(stats.moved, 0);
         assert_eq!(out.positions, coarse.positions);
-        let (stats, _) = fit(
-            &input,
-            &tree,
-            &mut out,
-            &|_| false,
-            FitParams::new(0, 0.1),
-            None,
-            None,
-        );
+        let stats = run(&input, &mut out, &|_| false, FitParams::new(0, 0.1), None);
         assert_eq!(stats, FitStats::default());
         assert_eq!(out.positions, coarse.positions);
     }

@@ -35,6 +35,11 @@
 //!    centroid and each edge's midpoint (an edge once for its two triangles), with
 //!    their nearest input points (queries against the input's tree, each started
 //!    at its own answer of the last iteration, or at its triangle's centroid's).
+//!    One whose nearest input triangle faces against its output triangle (an
+//!    edge's: against its two triangles' summed normal) belongs to another sheet,
+//!    the far side of a thin part or another part lying against this one, and
+//!    pulls nothing (the normal-compatibility test of ICP's correspondence
+//!    rejection).
 //! 2. **Step.** In each iteration ([`DEFAULT_FIT_ITERATIONS`] by default), each
 //!    sample is projected on its output triangle (point `q`, barycentric weights `b`,
 //!    unit normal `n`; residual `r = n·(q − p)`, the point-to-plane distance of Chen
@@ -698,25 +703,33 @@ pub(crate) fn fit(
         // The sample at `q`: its nearest input point (the query started at
         // `last`, its answer in the last iteration, else at `hint`), and its planes
         // for `corners` (point, weight).
-        let mut pull = |q: V3, last: u32, corners: &[(usize, f64)], hint: &mut Option<u32>| {
-            if last != u32::MAX {
-                *hint = Some(last);
-            }
-            let Some(cl) = input_tree.closest(q, *hint) else {
-                return (u32::MAX, 0.0);
-            };
-            *hint = Some(cl.triangle);
-            let (point, triangle) = (cl.point, cl.triangle);
-            let off = sub(q, point);
-            let d = norm(off);
-            if d > 0.0 {
-                let u = off.map(|v| v / d);
-                for &(v, w) in corners {
-                    quad[v].add(&Quadric::from_plane(u, d - dot(u, x[v]), w));
+        let mut pull =
+            |q: V3, facing: V3, last: u32, corners: &[(usize, f64)], hint: &mut Option<u32>| {
+                if last != u32::MAX {
+                    *hint = Some(last);
                 }
-            }
-            (triangle, d)
-        };
+                let Some(cl) = input_tree.closest(q, *hint) else {
+                    return (u32::MAX, 0.0);
+                };
+                *hint = Some(cl.triangle);
+                let (point, triangle) = (cl.point, cl.triangle);
+                // A nearest input triangle facing the other way belongs to another
+                // sheet (the far side of a thin part, another part lying against this
+                // one): no correspondence.
+                let it = input.triangles[triangle as usize].map(|v| f64v(ip[v as usize]));
+                if dot(facing, cross(sub(it[1], it[0]), sub(it[2], it[0]))) < 0.0 {
+                    return (triangle, 0.0);
+                }
+                let off = sub(q, point);
+                let d = norm(off);
+                if d > 0.0 {
+                    let u = off.map(|v| v / d);
+                    for &(v, w) in corners {
+                        quad[v].add(&Quadric::from_plane(u, d - dot(u, x[v]), w));
+                    }
+                }
+                (triangle, d)
+            };
         let area = |tri: usize| norm(normals[tri]) / 2.0;
         for (tri, &t) in tris.iter().enumerate() {
             let a = area(tri);
@@ -728,7 +741,7 @@ pub(crate) fn fit(
             let m: V3 = std::array::from_fn(|j| (c[0][j] + c[1][j] + c[2][j]) / 3.0);
             let corners = t.map(|v| (v as usize, w / 3.0));
             let matched = &mut out_match[tri];
-            let (found, mut dmax) = pull(m, matched[0], &corners, &mut hint);
+            let (found, mut dmax) = pull(m, normals[tri], matched[0], &corners, &mut hint);
             matched[0] = found;
             // Each edge once, from the triangle with the smaller index (or its only
             // one), weighted by both triangles' areas.
@@ -752,7 +765,11 @@ pub(crate) fn fit(
                     hint = Some(found);
                 }
                 let ends = [(a, we / 2.0), (b, we / 2.0)];
-                let (edge_found, d) = pull(mid, out_match[tri][k + 1], &ends, &mut hint);
+                let facing = match conn.across[tri][k] {
+                    u32::MAX => normals[tri],
+                    o => std::array::from_fn(|j| normals[tri][j] + normals[o as usize][j]),
+                };
+                let (edge_found, d) = pull(mid, facing, out_match[tri][k + 1], &ends, &mut hint);
                 out_match[tri][k + 1] = edge_found;
                 dmax = dmax.max(d);
                 if other != u32::MAX as usize {
@@ -1120,6 +1137,32 @@ mod tests {
             with < without && without < before,
             "{before} {without} {with}"
         );
+    }
+
+    /// An output sample whose nearest input triangle faces the other way (the far
+    /// side of a thin part, another part lying against this one) pulls nothing:
+    /// with the input's plane turned over (facing −z under the coarse grid, which
+    /// faces +z, centre lifted to 0.3), the output samples change nothing, so the
+    /// fit with them ends where the fit without them does.
+    #[test]
+    fn output_samples_ignore_input_facing_the_other_way() {
+        let mut input = grid(9, |_, _| 0.0);
+        for t in &mut input.triangles {
+            t.swap(1, 2);
+        }
+        let coarse = grid(3, |x, y| if x == 2.0 && y == 2.0 { 0.3 } else { 0.0 });
+        let after = |out_weight: f64| {
+            let mut out = coarse.clone();
+            let params = FitParams {
+                out_weight,
+                ..FitParams::new(1, 0.1)
+            };
+            run(&input, &mut out, &|_| false, params, None);
+            out.positions[4]
+        };
+        let (without, with) = (after(0.0), after(OUT_WEIGHT));
+        assert!(without[2] < 0.3, "{without:?}");
+        assert_eq!(with, without);
     }
 
     /// A locked vertex keeps its position, and zero iterations do nothing.

@@ -1022,6 +1022,18 @@ mod tests {
         fit(input, &tree, out, fixed, params, map, None).0
     }
 
+    /// `coarse` fitted toward `input` (no point locked) for `iterations`
+    /// iterations with output-sample weight `out_weight`.
+    fn fitted(input: &Mesh, coarse: &Mesh, iterations: u32, out_weight: f64) -> Mesh {
+        let mut out = coarse.clone();
+        let params = FitParams {
+            out_weight,
+            ..FitParams::new(iterations, 0.1)
+        };
+        run(input, &mut out, &|_| false, params, None);
+        out
+    }
+
     /// An `n`×`n` grid of points over `[0, 4]²` at height `z(x, y)`, two triangles
     /// per cell, facing +z.
     fn grid(n: u32, z: impl Fn(f32, f32) -> f32) -> Mesh {
@@ -1123,15 +1135,7 @@ mod tests {
             }
             worst
         };
-        let after = |out_weight: f64| {
-            let mut out = coarse.clone();
-            let params = FitParams {
-                out_weight,
-                ..FitParams::new(2, 0.1)
-            };
-            run(&input, &mut out, &|_| false, params, None);
-            out_to_in(&out)
-        };
+        let after = |out_weight: f64| out_to_in(&fitted(&input, &coarse, 2, out_weight));
         let (before, without, with) = (out_to_in(&coarse), after(0.0), after(OUT_WEIGHT));
         assert!(
             with < without && without < before,
@@ -1151,15 +1155,7 @@ mod tests {
             t.swap(1, 2);
         }
         let coarse = grid(3, |x, y| if x == 2.0 && y == 2.0 { 0.3 } else { 0.0 });
-        let after = |out_weight: f64| {
-            let mut out = coarse.clone();
-            let params = FitParams {
-                out_weight,
-                ..FitParams::new(1, 0.1)
-            };
-            run(&input, &mut out, &|_| false, params, None);
-            out.positions[4]
-        };
+        let after = |out_weight: f64| fitted(&input, &coarse, 1, out_weight).positions[4];
         let (without, with) = (after(0.0), after(OUT_WEIGHT));
         assert!(without[2] < 0.3, "{without:?}");
         assert_eq!(with, without);

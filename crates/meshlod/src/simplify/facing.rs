@@ -85,6 +85,12 @@ pub(crate) fn centroid(corners: &[V3; 3]) -> V3 {
     lerp3(corners, SAMPLES[0])
 }
 
+/// The (unnormalised) normal of `mesh`'s triangle `t`, twice its area long.
+pub(crate) fn face_normal(mesh: &Mesh, t: u32) -> V3 {
+    let c = mesh.triangles[t as usize].map(|v| f64v(mesh.positions[v as usize]));
+    cross(sub(c[1], c[0]), sub(c[2], c[0]))
+}
+
 /// Answers already known for some output triangles: `(centroid, nearest input
 /// point)` at the index of the triangle, from an earlier pass (the vertex fitting's
 /// orientation guard queries the same points). An entry is used only when the
@@ -164,9 +170,7 @@ impl Repair<'_> {
             return (false, 0.0);
         };
         *hint = Some(cl.triangle);
-        let it = self.input.triangles[cl.triangle as usize]
-            .map(|i| f64v(self.input.positions[i as usize]));
-        let m = cross(sub(it[1], it[0]), sub(it[2], it[0]));
+        let m = face_normal(self.input, cl.triangle);
         let away = dot(n, n).sqrt() > self.min_area2 && dot(n, m) < 0.0;
         (away, cl.dist2.sqrt())
     }

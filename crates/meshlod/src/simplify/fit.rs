@@ -716,8 +716,7 @@ pub(crate) fn fit(
                 // A nearest input triangle facing the other way belongs to another
                 // sheet (the far side of a thin part, another part lying against this
                 // one): no correspondence.
-                let it = input.triangles[triangle as usize].map(|v| f64v(ip[v as usize]));
-                if dot(facing, cross(sub(it[1], it[0]), sub(it[2], it[0]))) < 0.0 {
+                if dot(facing, facing::face_normal(input, triangle)) < 0.0 {
                     return (triangle, 0.0);
                 }
                 let off = sub(q, point);
@@ -856,12 +855,9 @@ pub(crate) fn fit(
                     test_triangle(tri as usize, &mut bad_points);
                 }
             }
-            let moving: Box<dyn Iterator<Item = usize>> = if round == 0 {
-                Box::new(0..np)
-            } else {
-                Box::new(changed.iter().map(|&p| p as usize))
-            };
-            for p in moving {
+            // (Every point: a pass over the output's points is cheap, and an
+            // unchanged one passes again.)
+            for p in 0..np {
                 if scale[p] > 0.0 {
                     let to: V3 = std::array::from_fn(|j| x[p][j] + scale[p] * step[p][j]);
                     if norm(sub(to, target[p])) > local_max[p] {
@@ -956,8 +952,7 @@ pub(crate) fn fit(
                 return (false, None);
             };
             *hint = Some(cl.triangle);
-            let it = input.triangles[cl.triangle as usize].map(|v| f64v(ip[v as usize]));
-            let r = cross(sub(it[1], it[0]), sub(it[2], it[0]));
+            let r = facing::face_normal(input, cl.triangle);
             let away = dot(n, n) > 0.0 && dot(n, r) < 0.0;
             (away, starts.is_some().then_some((m, cl)))
         };

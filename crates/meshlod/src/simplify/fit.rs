@@ -1214,7 +1214,7 @@ mod tests {
     /// ```text
     ///   (1,2)---(2,2)
     ///     |    / |
-    ///     |  ^   |     ^ the peak, 1 high, half its height 0.26 from its top
+    ///     |  ^   |     ^ the peak: 1 high, half that 0.26 from its centre
     ///     | /    |
     ///   (1,1)---(2,1)
     /// ```

@@ -664,6 +664,8 @@ pub(crate) fn fit(
         }
     }
     drop(tri_at);
+    // The samples of output triangle `tri`.
+    let group = |tri: usize| &samples[tri_start[tri] as usize..tri_start[tri + 1] as usize];
 
     let x0 = x.clone();
     // Per output triangle, the input triangles nearest its centroid and its edges'
@@ -693,12 +695,11 @@ pub(crate) fn fit(
         if quartic_weight > 0.0 {
             let (mut sum_w, mut sum_wd2) = (0.0f64, 0.0f64);
             for (tri, &t) in tris.iter().enumerate() {
-                let range = tri_start[tri] as usize..tri_start[tri + 1] as usize;
-                if range.is_empty() {
+                if group(tri).is_empty() {
                     continue;
                 }
                 let frame = Frame::new(&t.map(|q| x[q as usize]));
-                for s in &samples[range] {
+                for s in group(tri) {
                     let d = Projected::new(&frame, f64v(s.p)).3;
                     sum_w += f64::from(s.weight);
                     sum_wd2 += f64::from(s.weight) * d * d;
@@ -712,8 +713,7 @@ pub(crate) fn fit(
         }
         let reweight = |d: f64| 1.0 + k_rms * d * d;
         for (tri, &t) in tris.iter().enumerate() {
-            let range = tri_start[tri] as usize..tri_start[tri + 1] as usize;
-            if range.is_empty() {
+            if group(tri).is_empty() {
                 continue;
             }
             let c = t.map(|q| x[q as usize]);
@@ -724,7 +724,7 @@ pub(crate) fn fit(
             let mut wbr = [0.0f64; 3];
             let mut dmax = 0.0f64;
             let frame = Frame::new(&c);
-            for s in &samples[range] {
+            for s in group(tri) {
                 let (_, off, b, d) = Projected::new(&frame, f64v(s.p));
                 dmax = dmax.max(d);
                 let w = f64::from(s.weight) * reweight(d);
@@ -866,11 +866,10 @@ pub(crate) fn fit(
                 if t.iter().all(|&v| scale[v as usize] == 0.0) {
                     return;
                 }
-                let range = tri_start[tri] as usize..tri_start[tri + 1] as usize;
                 // The projections of the step's start, made again (as in the pass
                 // above) rather than stored: 28 bytes a sample saved.
                 let frame = Frame::new(&t.map(|q| x[q as usize]));
-                for s in &samples[range] {
+                for s in group(tri) {
                     let (pr, ..) = Projected::new(&frame, f64v(s.p));
                     let mut e = pr.offset;
                     for (&v, &b) in t.iter().zip(&pr.bary) {

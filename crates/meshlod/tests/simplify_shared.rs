@@ -2,7 +2,8 @@
 //! ratios 0.5, 0.1 and 0.01: indices valid, no degenerate or duplicate triangles,
 //! the triangle count within 1% of the target or a stop reason that explains why
 //! not, no new boundary edges, no new non-manifold edges, and no fold-overs; the
-//! same at 0.1 and 0.01 with the vertex fitting (`SimplifyOptions::fit_iterations`).
+//! same at 0.1 and 0.01 with the vertex fitting and the edge swaps (`--fit`:
+//! `SimplifyOptions::fit_iterations`, `SimplifyOptions::edge_swaps`).
 //!
 //! Fold-overs are measured like the peers benchmark's "flipped" column: an output
 //! triangle facing away from the original triangle closest to its centroid. That
@@ -138,12 +139,13 @@ fn shared_meshes_keep_invariants() {
                 Err(e) => failures.push(format!("{name}: {e}")),
             }
         }
-        // The same invariants with the vertex fitting (`--fit`).
+        // The same invariants with the vertex fitting and the edge swaps (`--fit`).
         for ratio in [0.1, 0.01] {
             let name = format!("{} @ {ratio} --fit", row.file);
             let o = SimplifyOptions::default()
                 .with_ratio(ratio)
-                .with_fit_iterations(meshlod::simplify::DEFAULT_FIT_ITERATIONS);
+                .with_fit_iterations(meshlod::simplify::DEFAULT_FIT_ITERATIONS)
+                .with_edge_swaps(true);
             match simplify(&mesh, &o) {
                 Ok((out, r)) => failures.extend(check(&name, &mesh, &repaired, &out, &r, &bvh)),
                 Err(e) => failures.push(format!("{name}: {e}")),

@@ -40,6 +40,10 @@
 //!    the far side of a thin part or another part lying against this one, and
 //!    pulls nothing (the normal-compatibility test of ICP's correspondence
 //!    rejection).
+//!    **Edge swaps** ([`FitParams::swaps`]; `--swap`, and `--fit`): before the
+//!    iterations, the diagonals of quads are swapped where the other one lies
+//!    nearer these samples (the [`swap`] module's rules; the samples follow).
+//!    With swaps and no iterations, this pass stops there.
 //! 2. **Step.** In each iteration ([`DEFAULT_FIT_ITERATIONS`] by default), each
 //!    sample is projected on its output triangle (point `q`, barycentric weights `b`,
 //!    unit normal `n`; residual `r = n·(q − p)`, the point-to-plane distance of Chen
@@ -117,6 +121,8 @@ use crate::quadric::{norm, Quadric};
 
 use super::facing::{self, KnownNearest};
 
+mod swap;
+
 /// Iterations `meshlod simplify --fit` runs ([`crate::SimplifyOptions::fit_iterations`]
 /// is 0, off, by default).
 pub const DEFAULT_FIT_ITERATIONS: u32 = 2;
@@ -147,6 +153,8 @@ pub(crate) struct FitStats {
     pub moved: usize,
     /// Iterations run.
     pub iterations: u32,
+    /// Edges swapped ([`swap`]).
+    pub swaps: usize,
 }
 
 /// A point of the input surface; the samples are stored grouped by the output
@@ -314,6 +322,8 @@ pub(crate) struct FitParams {
     pub out_weight: f64,
     /// Weight of the fourth-power term ([`QUARTIC_WEIGHT`]; 0 is plain least squares).
     pub quartic_weight: f64,
+    /// Edge swaps toward the input before the iterations ([`swap`]).
+    pub swaps: bool,
 }
 
 impl FitParams {
@@ -325,6 +335,7 @@ impl FitParams {
             min_quality,
             out_weight: OUT_WEIGHT,
             quartic_weight: QUARTIC_WEIGHT,
+            swaps: false,
         }
     }
 }
@@ -351,9 +362,10 @@ pub(crate) fn fit(
         min_quality,
         out_weight,
         quartic_weight,
+        swaps,
     } = params;
     let mut stats = FitStats::default();
-    if iterations == 0 || out.triangles.is_empty() || input.triangles.is_empty() {
+    if (iterations == 0 && !swaps) || out.triangles.is_empty() || input.triangles.is_empty() {
         return (stats, Vec::new());
     }
     let weld = Weld::exact(&out.positions);
@@ -364,12 +376,12 @@ pub(crate) fn fit(
         .iter()
         .map(|&v| f64v(out.positions[v as usize]))
         .collect();
-    let tris: Vec<[u32; 3]> = out
+    let mut tris: Vec<[u32; 3]> = out
         .triangles
         .iter()
         .map(|t| t.map(|v| point_of[v as usize]))
         .collect();
-    let conn = connectivity(&tris, np);
+    let mut conn = connectivity(&tris, np);
 
     // Fixed points: borders and non-manifold edges, locked vertices, points no
     // triangle uses.
@@ -381,7 +393,7 @@ pub(crate) fn fit(
             fixed[p as usize] = true;
         }
     }
-    if fixed.iter().all(|&f| f) {
+    if !swaps && fixed.iter().all(|&f| f) {
         return (stats, Vec::new());
     }
 
@@ -646,13 +658,33 @@ pub(crate) fn fit(
     }
     drop(sample_tri);
     drop(vweight);
+    drop(spheres);
+    drop(inner);
+    if swaps {
+        let ctx = swap::SwapContext {
+            input,
+            input_tree,
+            x: &x,
+            groups: out.groups.as_deref(),
+            min_quality,
+        };
+        let mut state = swap::SwapState {
+            tris: &mut tris,
+            out_tris: &mut out.triangles,
+            conn: &mut conn,
+            samples: &mut samples,
+            tri_start: &mut tri_start,
+            reference: &mut reference,
+        };
+        stats.swaps = swap::swap_edges(&ctx, &mut state);
+    }
     // Each free point's nearest input point (the output → input samples), the
     // query started at an input triangle of a vertex merged into it (else at the
     // previous answer).
     let mut target: Vec<V3> = vec![[0.0; 3]; np];
     let mut hint = None;
     for p in 0..np {
-        if fixed[p] {
+        if fixed[p] || iterations == 0 {
             continue;
         }
         if tri_at[p] != u32::MAX {
@@ -1041,6 +1073,7 @@ pub(crate) fn fit(
         check.dedup();
     }
     stats.moved = (0..np).filter(|&p| x[p] != x0[p]).count();
+
     for (v, pos) in out.positions.iter_mut().enumerate() {
         let p = point_of[v] as usize;
         if x[p] != x0[p] {
@@ -1242,6 +1275,97 @@ mod tests {
         };
         let (plain, weighted) = (in_to_out(0.0), in_to_out(QUARTIC_WEIGHT));
         assert!(weighted < 0.99 * plain, "{plain} {weighted}");
+    }
+
+    /// The input is a tent over `[0, 4]²`, `z = 0.5 − |x − y| / 8`: two planes
+    /// meeting along the ridge from (0, 0) to (4, 4) (9×9 points, the grid's
+    /// diagonals along the ridge). The output is its four corners, split the wrong
+    /// way, across the ridge (a valley):
+    ///
+    /// ```text
+    ///   2-------3        2-------3
+    ///   | ⟍   B |        | A   ⟋ |
+    ///   |   ⟍   |   →    |   ⟋   |
+    ///   | A   ⟍ |        | ⟋   B |
+    ///   0-------1        0-------1
+    /// ```
+    /// The swap turns the diagonal 1–2 into 0–3, which puts the output on the
+    /// input; no point moves.
+    fn tent_and_valley() -> (Mesh, Mesh) {
+        let tent = |x: f32, y: f32| 0.5 - (x - y).abs() / 8.0;
+        let input = grid(9, tent);
+        let corners = [[0.0, 0.0], [4.0, 0.0], [0.0, 4.0], [4.0, 4.0]];
+        let positions = corners.iter().map(|&[x, y]| [x, y, tent(x, y)]).collect();
+        let valley = Mesh::from_triangles(positions, vec![[0, 1, 2], [1, 3, 2]]);
+        (input, valley)
+    }
+
+    /// Largest distance from the input's vertices to `out`.
+    fn in_to_out(input: &Mesh, out: &Mesh) -> f64 {
+        let tree = Bvh::build_morton(&out.positions, &out.triangles);
+        input
+            .positions
+            .iter()
+            .map(|&p| {
+                tree.closest(f64v(p), None)
+                    .map_or(f64::INFINITY, |c| c.dist2.sqrt())
+            })
+            .fold(0.0, f64::max)
+    }
+
+    fn swaps_only() -> FitParams {
+        FitParams {
+            swaps: true,
+            ..FitParams::new(0, 0.1)
+        }
+    }
+
+    #[test]
+    fn a_swap_puts_the_diagonal_on_the_ridge() {
+        let (input, valley) = tent_and_valley();
+        let before = in_to_out(&input, &valley);
+        assert!(before > 0.2, "{before}");
+        let mut out = valley.clone();
+        let stats = run(&input, &mut out, &|_| false, swaps_only(), None);
+        assert_eq!(stats.swaps, 1);
+        assert_eq!(stats.moved, 0);
+        assert_eq!(out.positions, valley.positions);
+        let mut tris: Vec<[u32; 3]> = out
+            .triangles
+            .iter()
+            .map(|t| {
+                // Rotated to start at the smallest index (orientation kept).
+                let k = (0..3).min_by_key(|&k| t[k]).unwrap();
+                [t[k], t[(k + 1) % 3], t[(k + 2) % 3]]
+            })
+            .collect();
+        tris.sort_unstable();
+        assert_eq!(tris, vec![[0, 1, 3], [0, 3, 2]], "diagonal 0–3, facing +z");
+        let after = in_to_out(&input, &out);
+        assert!(after < 1e-5, "{after}");
+        // Already on the ridge: nothing to swap.
+        let stats = run(&input, &mut out, &|_| false, swaps_only(), None);
+        assert_eq!(stats.swaps, 0);
+    }
+
+    /// The same quad with its diagonal on a UV seam (points 1 and 2 are other
+    /// vertices in triangle B, at the same positions) or on a material border
+    /// (the two triangles in different groups): no swap.
+    #[test]
+    fn no_swap_across_a_seam_or_a_material_border() {
+        let (input, valley) = tent_and_valley();
+        let mut seam = valley.clone();
+        seam.positions.push(seam.positions[1]);
+        seam.positions.push(seam.positions[2]);
+        seam.triangles[1] = [4, 3, 5];
+        let mut groups = valley.clone();
+        groups.groups = Some(vec![0, 1]);
+        for (name, m) in [("seam", seam), ("groups", groups)] {
+            let mut out = m.clone();
+            let stats = run(&input, &mut out, &|_| false, swaps_only(), None);
+            assert_eq!(stats.swaps, 0, "{name}");
+            assert_eq!(out.triangles, m.triangles, "{name}");
+        }
     }
 
     /// A locked vertex keeps its position, and zero iterations do nothing.

@@ -213,7 +213,8 @@ fn locked_vertices_stay_put() {
             &SimplifyOptions::default()
                 .with_ratio(0.1)
                 .with_locked_vertices(mask.clone())
-                .with_fit_iterations(fit),
+                .with_fit_iterations(fit)
+                .with_edge_swaps(fit > 0),
         )
         .unwrap();
         check_invariants(&sphere, &out, &report);
@@ -583,9 +584,21 @@ fn random_mesh() -> impl Strategy<Value = Mesh> {
 proptest! {
     #![proptest_config(ProptestConfig::with_cases(64))]
     #[test]
-    fn random_meshes_keep_invariants(m in random_mesh(), ratio in prop::sample::select(vec![0.5, 0.1, 0.01])) {
-        let (out, report) = simplify(&m, &SimplifyOptions::default().with_ratio(ratio)).unwrap();
+    fn random_meshes_keep_invariants(
+        m in random_mesh(),
+        ratio in prop::sample::select(vec![0.5, 0.1, 0.01]),
+        swaps in any::<bool>(),
+        fit in prop::sample::select(vec![0u32, 2]),
+    ) {
+        let o = SimplifyOptions::default()
+            .with_ratio(ratio)
+            .with_edge_swaps(swaps)
+            .with_fit_iterations(fit);
+        let (out, report) = simplify(&m, &o).unwrap();
         check_invariants(&m, &out, &report);
+        if !swaps {
+            prop_assert_eq!(report.edge_swaps, 0);
+        }
     }
 
     #[test]
@@ -600,6 +613,13 @@ proptest! {
             idx.iter().map(|&(a, b, c)| [a % n, b % n, c % n]).collect(),
         );
         let (out, report) = simplify(&m, &SimplifyOptions::default().with_ratio(ratio)).unwrap();
+        check_invariants(&m, &out, &report);
+        // Swaps and the fitting on a soup: the same invariants.
+        let o = SimplifyOptions::default()
+            .with_ratio(ratio)
+            .with_edge_swaps(true)
+            .with_fit_iterations(2);
+        let (out, report) = simplify(&m, &o).unwrap();
         check_invariants(&m, &out, &report);
         let opts = SimplifyOptions::default()
             .with_ratio(ratio)

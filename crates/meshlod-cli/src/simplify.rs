@@ -147,16 +147,17 @@ pub struct SimplifyArgs {
     /// the input (--swap), then move the output's points toward the input surface
     /// without raising the largest distance around them (2 iterations; with the
     /// swaps, Hausdorff mean 6-22% lower on the benchmark meshes than without --fit
-    /// and no maximum higher, at 1.6-2.7x the time).
+    /// and maxima lower or within 0.01%, at 1.8-2.8x the time).
     #[arg(long)]
     pub fit: bool,
     /// qem (optimal or midpoint placement): after simplifying, swap the diagonal of
     /// two triangles where the other one lies nearer the input surface, without
-    /// raising the largest distance around it (lowered the Hausdorff mean by 1-9% on
-    /// the benchmark meshes, at 1.1-1.6x the time; --fit includes it).
+    /// raising the largest distance around it (lowered the Hausdorff mean by 1-10% on
+    /// the benchmark meshes, at 1.0-1.5x the time; --fit includes it).
     #[arg(long)]
     pub swap: bool,
-    /// With --fit: no diagonal swaps (the fitting alone).
+    /// With --fit: no diagonal swaps (the fitting alone; without --fit there are
+    /// none anyway).
     #[arg(long, conflicts_with = "swap")]
     pub no_swap: bool,
     /// qem: iterations of that fitting (implies --fit when above 0).
@@ -450,7 +451,10 @@ fn options(args: &SimplifyArgs) -> Result<SimplifyOptions> {
         o = o.with_defer_slack(Some(s));
     }
     o = o.with_facing_repair(!args.no_facing_repair);
-    let fitting = args.fit || args.fit_iterations.is_some_and(|n| n > 0);
+    let fitting = match args.fit_iterations {
+        Some(n) => n > 0,
+        None => args.fit,
+    };
     o = o.with_edge_swaps(args.swap || (fitting && !args.no_swap));
     if let Some(n) = args.fit_iterations {
         o = o.with_fit_iterations(n);

@@ -233,7 +233,7 @@ pub struct SimplifyOptions {
     /// any sample's distance past the largest around it, without turning a triangle
     /// by more than 60° and without turning one to face away from the input (see the
     /// `fit` module's rules). Borders, locked vertices and topology are kept. `0`
-    /// turns it off. Default 0 (off: it adds 40–150% to the run's time);
+    /// turns it off. Default 0 (off: it adds 60–140% to the run's time);
     /// [`DEFAULT_FIT_ITERATIONS`] (2) is what `meshlod simplify --fit` runs, with
     /// [`Self::edge_swaps`] before them. The reported `error` stays the quadric
     /// error of the collapses.
@@ -241,13 +241,14 @@ pub struct SimplifyOptions {
     /// [`Method::Qem`] with [`Placement::Optimal`] or [`Placement::Midpoint`]: after
     /// simplifying (before the fitting and the orientation repair), swap the
     /// diagonal of two triangles where the other one lies nearer the input (Hoppe
-    /// et al. 1993's edge swap: the input's vertices and centroids nearer their
-    /// output triangles in the squared sum, none of them farther than the farthest
-    /// was, the output's centroids and edge midpoints no farther from the input;
-    /// see the `fit` module's `swap` rules). No point moves; borders, seams,
-    /// material borders and topology are kept. Default `false` (it adds 10–60% to
-    /// the run's time, about 10% on top of the fitting, whose input samples it
-    /// shares).
+    /// et al. 1993's edge swap: the input's vertices (and, with the fitting, its
+    /// centroids) nearer their output triangles in the squared sum, none of them
+    /// farther than the farthest was; the new triangles' centroids and points of
+    /// the new diagonal no farther from the input than the old pair's; the new
+    /// diagonal not an edge already; see the `fit` module's `swap` rules). No point
+    /// moves; borders, seams, material borders and topology are kept. Default
+    /// `false` (it adds 2–54% to the run's time, 1–27% on top of the fitting, whose
+    /// input samples it shares).
     pub edge_swaps: bool,
 }
 
@@ -825,8 +826,9 @@ pub fn simplify_observed(
                 }
             }
             let fixed = |v: usize| locked_out[v];
-            // The repair's query starts, so that it can reuse the fit's answers.
-            let starts = facing_on.then(|| facing::query_starts(mesh, &out, &vertex_source));
+            // The repair's query starts (for the triangles as the swaps leave them),
+            // so that it can reuse the fit's answers.
+            let starts = |m: &Mesh| facing::query_starts(mesh, m, &vertex_source);
             fit::fit(
                 mesh,
                 tree,
@@ -837,7 +839,7 @@ pub fn simplify_observed(
                     ..fit::FitParams::new(options.fit_iterations, options.min_triangle_quality)
                 },
                 merged_into.as_deref(),
-                starts.as_deref(),
+                facing_on.then_some(&starts as &fit::StartsOf<'_>),
             )
         }
         _ => (fit::FitStats::default(), Vec::new()),

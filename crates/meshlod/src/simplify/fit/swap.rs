@@ -13,17 +13,21 @@
 //! order; a triangle swapped in a sweep waits for the next one, and after the first
 //! sweep only the edges of swapped triangles and their neighbours are tried again:
 //! no other edge's triangles or samples changed). Its two triangles' input samples
-//! (the fit's: each input vertex and centroid, on its nearest output triangle) are
-//! weighed against the two new triangles; the swap is taken when
+//! (the fit's, on their nearest output triangles: each input vertex, and with the
+//! fit's iterations each input centroid too) are weighed against the two new
+//! triangles; the swap is taken when
 //!
 //! - the weighted sum of their squared distances falls by at least [`MIN_GAIN`]
 //!   of its old value, each sample on the new triangle on its side of the plane
 //!   through `c–d` along the quad's normal (old: on its own triangle), and their
-//!   largest distance does not grow. Two cheaper tests come first: the two
-//!   triangulations of a quad are at most `h` apart (the distance between the
-//!   diagonals' lines), so no sample gets nearer by more than `h` and the gain is
-//!   at most `2 h Σ w d`; and the distances to the new triangles' planes, which
-//!   are at most those to the triangles, must already show the gain;
+//!   largest distance does not grow. Two cheaper tests come first. Over a quad
+//!   that is not folded, the two triangulations lie between two parallel planes
+//!   `h` apart (`h` the distance between the diagonals' lines), so a sample on
+//!   the nearer of its two old triangles gets nearer by at most `h` and the gain
+//!   is at most `2 h Σ w d`; edges below that are skipped (a heuristic where the
+//!   quad is folded or a sample sits on the farther triangle: it can only miss a
+//!   swap). Then the distances to the new triangles' planes, which are at most
+//!   those to the triangles, must already show the gain (a true bound);
 //! - the edge is not on a border, a non-manifold edge, a UV seam or a material
 //!   border (its two ends are one vertex each in both triangles, and both
 //!   triangles are in one group), and `c–d` is not an edge already;
@@ -42,10 +46,10 @@
 //! moves; topology, attributes and borders are unchanged.
 //!
 //! Measured (`meshlod simplify --measure`, bunny, armadillo, Nefertiti, Lucy,
-//! turbine blade and fandisk at 10% and 1%): alone, Hausdorff mean ×0.907–0.989
-//! (geometric mean ×0.948) at maxima ×0.966–1.011 (×0.998); before the fit's
-//! iterations, mean ×0.913–0.985 (×0.952) and maxima ×0.929–1.150 (×0.994) against
-//! the fit alone. See the README for the time.
+//! turbine blade and fandisk at 10% and 1%): alone (vertex samples), Hausdorff mean
+//! ×0.902–0.987 (geometric mean ×0.947) at maxima ×0.981–1.030 (×1.001); before
+//! the fit's iterations, mean ×0.913–0.985 (×0.952) and maxima ×0.929–1.150
+//! (×0.994) against the fit alone. See the README for the time.
 
 use super::{dot, norm, sub, Bvh, Connectivity, Frame, Mesh, Sample, V3};
 use crate::filter::triangle_quality;
@@ -81,8 +85,11 @@ pub(super) struct SwapState<'a> {
     pub conn: &'a mut Connectivity,
     pub samples: &'a mut Vec<Sample>,
     pub tri_start: &'a mut Vec<u32>,
-    /// Per triangle, the normal of the input triangle nearest its centroid (the
-    /// fit's orientation reference), set again for swapped triangles.
+    /// Per triangle, the normal of an input triangle near its centroid (the
+    /// fit's orientation reference: the nearest among those whose centroids it
+    /// received) and that squared distance; a swapped triangle gets the normal of
+    /// the input triangle nearest its centroid (a query; the distance is not used
+    /// after the sample search and is set to 0).
     pub reference: &'a mut [(V3, f64)],
 }
 
@@ -93,8 +100,9 @@ pub(super) fn swap_edges(ctx: &SwapContext<'_>, st: &mut SwapState<'_>) -> usize
     let np = x.len();
     let mut total = 0usize;
     let mut hint: Option<u32> = None;
-    // The largest distance to the input of three points and how many of the
-    // two triangles face away from the input triangle nearest their centroid.
+    // The largest distance to the input of five points (the first two the
+    // triangles' centroids) and how many of the two triangles face away from the
+    // input triangle nearest their centroid.
     let mut out_side = |pts: [V3; 5], normals: [V3; 2], hint: &mut Option<u32>| {
         let mut dmax = 0.0f64;
         let mut away = 0u32;
@@ -272,18 +280,13 @@ fn try_swap(
             return None;
         }
     }
-    // c–d is not an edge already.
-    if st
-        .conn
-        .fan(pc as usize)
-        .iter()
-        .any(|&t| st.tris[t as usize].contains(&pd) && st.tris[t as usize].contains(&pc))
-    {
+    if has_edge(st.conn, st.tris, pc, pd) {
         return None;
     }
-    // The two triangulations of the quad are at most `h` apart (the distance
-    // between the diagonals' lines), so no sample gets nearer by more than `h`:
-    // the gain is at most 2 h Σ w d.
+    // Over an unfolded quad the two triangulations are at most `h` apart (the
+    // distance between the diagonals' lines), so no sample gets nearer by more
+    // than `h`: the gain is at most 2 h Σ w d (a heuristic for a folded quad; it
+    // can only miss a swap).
     let [s_wd, e_old, m_old] = old_sums;
     if e_old <= 0.0 {
         return None;
@@ -401,6 +404,20 @@ fn try_swap(
     })
 }
 
+/// Whether some triangle has the edge `a–b`, with `conn` (the fans) as it was at the
+/// start of the sweep and `tris` as the swaps since left them. A triangle slot
+/// changes at most once a sweep, and then each of its new edges keeps an end the
+/// slot held at the sweep's start (`x–d` and `c–x` in `x`'s slot, `y–c` and `d–y`
+/// in `y`'s, `c–d` in both), so the fans of `a` and `b` together find every edge.
+/// `a`'s alone would miss a border edge `x–d` moved into `x`'s slot when asked
+/// from `d`'s side.
+fn has_edge(conn: &Connectivity, tris: &[[u32; 3]], a: u32, b: u32) -> bool {
+    conn.fan(a as usize)
+        .iter()
+        .chain(conn.fan(b as usize))
+        .any(|&t| tris[t as usize].contains(&a) && tris[t as usize].contains(&b))
+}
+
 /// Squared distance from `p` to the frame's triangle.
 fn dist2(f: &Frame, p: V3) -> f64 {
     let (q, _) = f.project(p);
@@ -446,4 +463,34 @@ fn regroup(st: &mut SwapState<'_>, owner: &mut [u32]) {
 
 fn add(a: V3, b: V3) -> V3 {
     std::array::from_fn(|k| a[k] + b[k])
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A swap within a sweep moves the border edge `x–d` (0–3) from `t1`'s slot into
+    /// `t0`'s, which did not hold 3 when the fans were built:
+    ///
+    /// ```text
+    ///       2 (c)                2
+    ///     /   \     t0         / | \
+    ///   0(x)---1(y)    →     0  |  1
+    ///     \   /     t1         \ | /
+    ///       3 (d)                3
+    /// ```
+    /// (every outer edge a border). The stale fans of both ends still find every
+    /// edge of the new triangles, and not the removed diagonal.
+    #[test]
+    fn has_edge_finds_edges_moved_within_a_sweep() {
+        let mut tris = vec![[0, 1, 2], [1, 0, 3]];
+        let conn = super::super::connectivity(&tris, 4);
+        tris[0] = [0, 3, 2];
+        tris[1] = [1, 2, 3];
+        for (a, b) in [(3, 0), (0, 3), (2, 3), (3, 2), (1, 2), (3, 1), (2, 0)] {
+            assert!(has_edge(&conn, &tris, a, b), "{a}-{b}");
+        }
+        assert!(!has_edge(&conn, &tris, 0, 1));
+        assert!(!has_edge(&conn, &tris, 1, 0));
+    }
 }

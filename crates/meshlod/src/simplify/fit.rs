@@ -1332,6 +1332,20 @@ mod tests {
             .fold(0.0, f64::max)
     }
 
+    /// The triangles, each rotated to start at its smallest index (orientation
+    /// kept), sorted.
+    fn canonical(tris: &[[u32; 3]]) -> Vec<[u32; 3]> {
+        let mut out: Vec<[u32; 3]> = tris
+            .iter()
+            .map(|t| {
+                let k = (0..3).min_by_key(|&k| t[k]).unwrap_or(0);
+                [t[k], t[(k + 1) % 3], t[(k + 2) % 3]]
+            })
+            .collect();
+        out.sort_unstable();
+        out
+    }
+
     fn swaps_only() -> FitParams {
         FitParams {
             swaps: true,
@@ -1349,17 +1363,11 @@ mod tests {
         assert_eq!(stats.swaps, 1);
         assert_eq!(stats.moved, 0);
         assert_eq!(out.positions, valley.positions);
-        let mut tris: Vec<[u32; 3]> = out
-            .triangles
-            .iter()
-            .map(|t| {
-                // Rotated to start at the smallest index (orientation kept).
-                let k = (0..3).min_by_key(|&k| t[k]).unwrap();
-                [t[k], t[(k + 1) % 3], t[(k + 2) % 3]]
-            })
-            .collect();
-        tris.sort_unstable();
-        assert_eq!(tris, vec![[0, 1, 3], [0, 3, 2]], "diagonal 0–3, facing +z");
+        assert_eq!(
+            canonical(&out.triangles),
+            vec![[0, 1, 3], [0, 3, 2]],
+            "diagonal 0–3, facing +z"
+        );
         let after = in_to_out(&input, &out);
         assert!(after < 1e-5, "{after}");
         // Vertex ids other than point ids: point 3 is vertex 4 in triangle B
@@ -1370,16 +1378,7 @@ mod tests {
         other.triangles[1] = [1, 4, 2];
         let stats = run(&input, &mut other, &|_| false, swaps_only(), None);
         assert_eq!(stats.swaps, 1);
-        let mut tris: Vec<[u32; 3]> = other
-            .triangles
-            .iter()
-            .map(|t| {
-                let k = (0..3).min_by_key(|&k| t[k]).unwrap();
-                [t[k], t[(k + 1) % 3], t[(k + 2) % 3]]
-            })
-            .collect();
-        tris.sort_unstable();
-        assert_eq!(tris, vec![[0, 1, 4], [0, 4, 2]]);
+        assert_eq!(canonical(&other.triangles), vec![[0, 1, 4], [0, 4, 2]]);
         // Already on the ridge: nothing to swap.
         let stats = run(&input, &mut out, &|_| false, swaps_only(), None);
         assert_eq!(stats.swaps, 0);

@@ -367,32 +367,20 @@ fn try_swap(
         }
     }
     // Output → input, and facing.
-    let centroid = |c: &[V3; 3]| facing::centroid(c);
-    let at = |p: u32, q: u32, f: f64| -> V3 {
-        std::array::from_fn(|j| (1.0 - f) * x[p as usize][j] + f * x[q as usize][j])
+    // The triangles' centroids and the diagonal `p–q`'s points at ½, ¼ and ¾.
+    let points = |c: &[[V3; 3]; 2], p: u32, q: u32| -> [V3; 5] {
+        let at =
+            |f: f64| std::array::from_fn(|j| (1.0 - f) * x[p as usize][j] + f * x[q as usize][j]);
+        [
+            facing::centroid(&c[0]),
+            facing::centroid(&c[1]),
+            at(0.5),
+            at(0.25),
+            at(0.75),
+        ]
     };
-    let (d_old, away_old, _) = out_side(
-        [
-            centroid(&oc[0]),
-            centroid(&oc[1]),
-            at(px, py, 0.5),
-            at(px, py, 0.25),
-            at(px, py, 0.75),
-        ],
-        on,
-        hint,
-    )?;
-    let (d_new, away_new, refs) = out_side(
-        [
-            centroid(&nc[0]),
-            centroid(&nc[1]),
-            at(pc, pd, 0.5),
-            at(pc, pd, 0.25),
-            at(pc, pd, 0.75),
-        ],
-        nn,
-        hint,
-    )?;
+    let (d_old, away_old, _) = out_side(points(&oc, px, py), on, hint)?;
+    let (d_new, away_new, refs) = out_side(points(&nc, pc, pd), nn, hint)?;
     if d_new > d_old || away_new > away_old {
         return None;
     }

@@ -51,7 +51,7 @@
 //! the fit's iterations, mean ×0.913–0.985 (×0.952) and maxima ×0.929–1.150
 //! (×0.994) against the fit alone. See the README for the time.
 
-use super::{dot, norm, sub, Bvh, Connectivity, Frame, Mesh, Sample, V3};
+use super::{dot, f64v, norm, sub, Bvh, Connectivity, Frame, Mesh, Sample, V3};
 use crate::filter::triangle_quality;
 use crate::metrics::triangle::cross;
 use crate::simplify::facing;
@@ -411,10 +411,6 @@ fn dist2(f: &Frame, p: V3) -> f64 {
     let (q, _) = f.project(p);
     let d = sub(q, p);
     dot(d, d)
-}
-
-fn f64v(p: [f32; 3]) -> V3 {
-    p.map(f64::from)
 }
 
 /// The samples sorted again by their triangles, in place (a counting sort that

@@ -173,6 +173,7 @@ pub(super) fn swap_edges(ctx: &SwapContext<'_>, st: &mut SwapState<'_>) -> usize
                 let Swap {
                     new_points,
                     new_vertices,
+                    frames: [f1, f2],
                     refs,
                 } = swap;
                 if owner.is_empty() {
@@ -183,8 +184,6 @@ pub(super) fn swap_edges(ctx: &SwapContext<'_>, st: &mut SwapState<'_>) -> usize
                         })
                         .collect();
                 }
-                let f1 = Frame::new(&new_points[0].map(|p| x[p as usize]));
-                let f2 = Frame::new(&new_points[1].map(|p| x[p as usize]));
                 for t in [t1, t2] {
                     for s in st.tri_start[t]..st.tri_start[t + 1] {
                         let p = f64v(st.samples[s as usize].p);
@@ -226,10 +225,12 @@ pub(super) fn swap_edges(ctx: &SwapContext<'_>, st: &mut SwapState<'_>) -> usize
 }
 
 /// A swap found acceptable: the two new triangles over points and over vertices,
-/// and the normals of the input triangles nearest their centroids.
+/// their frames (for the samples' reassignment), and the normals of the input
+/// triangles nearest their centroids.
 struct Swap {
     new_points: [[u32; 3]; 2],
     new_vertices: [[u32; 3]; 2],
+    frames: [Frame; 2],
     refs: [V3; 2],
 }
 
@@ -388,6 +389,7 @@ fn try_swap(
     Some(Swap {
         new_points: new,
         new_vertices: [[vx, vd, vc], [vy, vc, vd]],
+        frames: frames_new,
         refs,
     })
 }

@@ -272,6 +272,63 @@ impl Connectivity {
 
 fn connectivity(tris: &[[u32; 3]], np: usize) -> Connectivity {
     let fans = FanCsr::build(np, tris, |t| Some(*t));
+    if tris
+        .iter()
+        .any(|t| t[0] == t[1] || t[1] == t[2] || t[2] == t[0])
+    {
+        return connectivity_sorted(tris, np, fans);
+    }
+    // An edge a–b is interior when exactly two triangles hold it (those around a
+    // that also hold b), else its ends are border points: found from a's fan,
+    // both sides at once (the sort below, in O(valence) per edge).
+    let mut across = vec![[u32::MAX; 3]; tris.len()];
+    let mut border = vec![false; np];
+    let fan = |p: u32| {
+        let s = fans.start[p as usize] as usize;
+        &fans.fans[s..s + fans.len[p as usize] as usize]
+    };
+    for (t, tri) in tris.iter().enumerate() {
+        for k in 0..3 {
+            if across[t][k] != u32::MAX {
+                continue;
+            }
+            let (a, b) = (tri[k], tri[(k + 1) % 3]);
+            let mut count = 0u32;
+            let mut other = u32::MAX;
+            for &o in fan(a) {
+                if tris[o as usize].contains(&b) {
+                    count += 1;
+                    if o as usize != t {
+                        other = o;
+                    }
+                }
+            }
+            if count == 2 {
+                let u = tris[other as usize];
+                let k2 = (0..3)
+                    .find(|&j| {
+                        let (x, y) = (u[j], u[(j + 1) % 3]);
+                        (x == a && y == b) || (x == b && y == a)
+                    })
+                    .unwrap_or(0);
+                across[t][k] = other;
+                across[other as usize][k2] = t as u32;
+            } else {
+                border[a as usize] = true;
+                border[b as usize] = true;
+            }
+        }
+    }
+    Connectivity {
+        fans,
+        across,
+        border,
+    }
+}
+
+/// [`connectivity`] by sorting the undirected edges (kept for triangles with a
+/// repeated corner, where an edge can occur twice in one triangle).
+fn connectivity_sorted(tris: &[[u32; 3]], np: usize, fans: FanCsr) -> Connectivity {
     // Undirected edges with their (triangle, corner), sorted; runs of two are
     // interior edges.
     let mut edges: Vec<(u64, u32)> = Vec::with_capacity(tris.len() * 3);
@@ -1423,5 +1480,33 @@ mod tests {
         let stats = run(&input, &mut out, &|_| false, FitParams::new(0, 0.1), None);
         assert_eq!(stats, FitStats::default());
         assert_eq!(out.positions, coarse.positions);
+    }
+
+    /// The same neighbours and border points from the fans as from sorting the
+    /// edges, on small random triangle sets over few points (so edges with one,
+    /// two, three or more triangles, both orientations and repeated triangles
+    /// all occur), and on closed and open meshes.
+    #[test]
+    fn fan_connectivity_matches_the_sorted_edges() {
+        use proptest::prelude::*;
+        let same = |tris: &[[u32; 3]], np: usize| {
+            let fans = FanCsr::build(np, tris, |t| Some(*t));
+            let (a, b) = (connectivity(tris, np), connectivity_sorted(tris, np, fans));
+            assert_eq!(a.across, b.across, "{tris:?}");
+            assert_eq!(a.border, b.border, "{tris:?}");
+        };
+        let ico = crate::mesh::generate::icosphere(2);
+        same(&ico.triangles, ico.positions.len());
+        let open = grid(5, |_, _| 0.0);
+        same(&open.triangles, open.positions.len());
+        let soup = prop::collection::vec(
+            (0u32..7, 0u32..7, 0u32..7)
+                .prop_filter("distinct", |(a, b, c)| a != b && b != c && c != a),
+            0..24,
+        );
+        proptest!(ProptestConfig::with_cases(512), |(t in soup)| {
+            let tris: Vec<[u32; 3]> = t.iter().map(|&(a, b, c)| [a, b, c]).collect();
+            same(&tris, 7);
+        });
     }
 }

@@ -100,10 +100,10 @@ pub(super) fn swap_edges(ctx: &SwapContext<'_>, st: &mut SwapState<'_>) -> usize
     let np = x.len();
     let mut total = 0usize;
     let mut hint: Option<u32> = None;
-    // The largest distance to the input of five points (the first two the
+    // The largest distance to the input of the points `pts` (the first two the
     // triangles' centroids) and how many of the two triangles face away from the
     // input triangle nearest their centroid.
-    let mut out_side = |pts: [V3; 5], normals: [V3; 2], hint: &mut Option<u32>| {
+    let mut out_side = |pts: &[V3], normals: [V3; 2], hint: &mut Option<u32>| {
         let mut dmax = 0.0f64;
         let mut away = 0u32;
         let mut refs = [[0.0; 3]; 2];
@@ -234,8 +234,7 @@ struct Swap {
     refs: [V3; 2],
 }
 
-type OutSide<'f> =
-    dyn FnMut([V3; 5], [V3; 2], &mut Option<u32>) -> Option<(f64, u32, [V3; 2])> + 'f;
+type OutSide<'f> = dyn FnMut(&[V3], [V3; 2], &mut Option<u32>) -> Option<(f64, u32, [V3; 2])> + 'f;
 
 /// Edge `k` of triangle `t1` (its corners `k`, `k + 1`), shared with `t2`, and the
 /// sums of `t1`'s and `t2`'s samples together (weighted distances, weighted squared
@@ -380,10 +379,20 @@ fn try_swap(
             at(0.75),
         ]
     };
-    let (d_old, away_old, _) = out_side(points(&oc, px, py), on, hint)?;
-    let (d_new, away_new, refs) = out_side(points(&nc, pc, pd), nn, hint)?;
+    let (d_old, away_old, _) = out_side(&points(&oc, px, py), on, hint)?;
+    // The new pair: its centroids' nearest input triangles (their facing and
+    // normals are needed), then only whether each point of the new diagonal is
+    // within `d_old` of the input (a cheaper query that stops at the first
+    // triangle near enough; the same answer as comparing the exact distance).
+    let new_points = points(&nc, pc, pd);
+    let (d_new, away_new, refs) = out_side(&new_points[..2], nn, hint)?;
     if d_new > d_old || away_new > away_old {
         return None;
+    }
+    for p in &new_points[2..] {
+        if !ctx.input_tree.any_near(*p, *hint, |d2| d2.sqrt() <= d_old) {
+            return None;
+        }
     }
     let (vx, vy, vc, vd) = (va[k], va[(k + 1) % 3], va[(k + 2) % 3], vb[(k2 + 2) % 3]);
     Some(Swap {

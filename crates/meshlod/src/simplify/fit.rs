@@ -279,8 +279,9 @@ fn connectivity(tris: &[[u32; 3]], np: usize) -> Connectivity {
         return connectivity_sorted(tris, np, fans);
     }
     // An edge a–b is interior when exactly two triangles hold it (those around a
-    // that also hold b), else its ends are border points: found from a's fan,
-    // both sides at once (the sort below, in O(valence) per edge).
+    // that also hold b), else its ends are border points: the result of
+    // `connectivity_sorted`, found from a's fan in O(valence) per edge and set on
+    // both sides at once instead of sorting every edge.
     let mut across = vec![[u32::MAX; 3]; tris.len()];
     let mut border = vec![false; np];
     let fan = |p: u32| {

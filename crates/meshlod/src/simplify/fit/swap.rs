@@ -36,8 +36,10 @@
 //!   triangles' lowest);
 //! - the other direction does not get worse: the largest distance to the input
 //!   from the new triangles' centroids and the new diagonal's points at ¼, ½ and
-//!   ¾ is at most that from the same points of the old pair (ten queries against
-//!   the input's tree; with the old diagonal's midpoint alone, one swap on fandisk
+//!   ¾ is at most that from the same points of the old pair (seven closest-point
+//!   queries against the input's tree, and for the new diagonal's three points
+//!   only whether each is within that distance; with the old diagonal's midpoint
+//!   alone, one swap on fandisk
 //!   at 10% raised the Hausdorff maximum from 0.0377% to 0.0454% of the
 //!   diagonal), and no more of the two triangles face away from the input
 //!   triangle nearest their centroid than before (the orientation repair's test).

@@ -95,6 +95,18 @@ pub(super) struct SwapState<'a> {
     pub reference: &'a mut [(V3, f64)],
 }
 
+impl SwapState<'_> {
+    /// Where triangle `t`'s samples sit in `samples`.
+    fn range(&self, t: usize) -> std::ops::Range<usize> {
+        self.tri_start[t] as usize..self.tri_start[t + 1] as usize
+    }
+
+    /// Triangle `t`'s samples.
+    fn group(&self, t: usize) -> &[Sample] {
+        &self.samples[self.range(t)]
+    }
+}
+
 /// Runs the sweeps; returns the number of swaps.
 pub(super) fn swap_edges(ctx: &SwapContext<'_>, st: &mut SwapState<'_>) -> usize {
     let x = ctx.x;
@@ -137,7 +149,7 @@ pub(super) fn swap_edges(ctx: &SwapContext<'_>, st: &mut SwapState<'_>) -> usize
                     return r;
                 }
                 let f = Frame::new(&st.tris[t].map(|p| x[p as usize]));
-                for s in &st.samples[st.tri_start[t] as usize..st.tri_start[t + 1] as usize] {
+                for s in st.group(t) {
                     let d2 = dist2(&f, f64v(s.p));
                     let w = f64::from(s.weight);
                     r[0] += w * d2.sqrt();
@@ -180,17 +192,14 @@ pub(super) fn swap_edges(ctx: &SwapContext<'_>, st: &mut SwapState<'_>) -> usize
                 } = swap;
                 if owner.is_empty() {
                     owner = (0..nt)
-                        .flat_map(|t| {
-                            let n = st.tri_start[t + 1] - st.tri_start[t];
-                            std::iter::repeat_n(t as u32, n as usize)
-                        })
+                        .flat_map(|t| std::iter::repeat_n(t as u32, st.range(t).len()))
                         .collect();
                 }
                 for t in [t1, t2] {
-                    for s in st.tri_start[t]..st.tri_start[t + 1] {
-                        let p = f64v(st.samples[s as usize].p);
+                    for s in st.range(t) {
+                        let p = f64v(st.samples[s].p);
                         let (a, b) = (dist2(&f1, p), dist2(&f2, p));
-                        owner[s as usize] = if a <= b { t1 as u32 } else { t2 as u32 };
+                        owner[s] = if a <= b { t1 as u32 } else { t2 as u32 };
                     }
                 }
                 st.tris[t1] = new_points[0];
@@ -345,7 +354,7 @@ fn try_swap(
     });
     let offs = [dot(units[0], x[px as usize]), dot(units[1], x[py as usize])];
     for t in [t1, t2] {
-        for s in &st.samples[st.tri_start[t] as usize..st.tri_start[t + 1] as usize] {
+        for s in st.group(t) {
             let p = f64v(s.p);
             let i = usize::from((dot(sub(p, pcv), side) > 0.0) != x_side);
             let r = dot(units[i], p) - offs[i];
@@ -357,7 +366,7 @@ fn try_swap(
     }
     e_new = 0.0;
     for t in [t1, t2] {
-        for s in &st.samples[st.tri_start[t] as usize..st.tri_start[t + 1] as usize] {
+        for s in st.group(t) {
             let p = f64v(s.p);
             let on_x = (dot(sub(p, pcv), side) > 0.0) == x_side;
             let d_new = dist2(&frames_new[usize::from(!on_x)], p);

@@ -30,7 +30,7 @@ enum Command {
     /// mean and RMS (Metro-style vertex + edge + face sampling).
     Measure(measure::MeasureArgs),
     /// Simplify a mesh (quadric error metric edge collapse) and print a report.
-    Simplify(simplify::SimplifyArgs),
+    Simplify(Box<simplify::SimplifyArgs>),
     /// Progressive meshes: build a .pmesh, extract a level.
     #[command(subcommand)]
     Pm(pm::PmCommand),

@@ -143,6 +143,12 @@ pub struct SimplifyArgs {
     /// facing away from the input back toward it without raising the distance).
     #[arg(long)]
     pub no_facing_repair: bool,
+    /// Keep a flat-shaded input's normals as they are. By default, when every
+    /// triangle's corners carry its own facet normal (every point split into one
+    /// vertex per triangle, so no point could move), the normals are set aside
+    /// while simplifying and the output gets its own triangles' facet normals.
+    #[arg(long)]
+    pub no_reshade_flat: bool,
     /// qem (optimal or midpoint placement): after simplifying, swap diagonals toward
     /// the input (--swap), then move the output's points toward the input surface
     /// without raising the largest distance around them (2 iterations; with the
@@ -275,6 +281,9 @@ struct CliReport {
     fit_moved: usize,
     /// Diagonals swapped toward the input (qem).
     edge_swaps: usize,
+    /// The input was flat shaded: simplified without its normals, and the output
+    /// given its own facet normals (see --no-reshade-flat).
+    flat_shading: bool,
     /// Output triangles facing away from the input before and after the repair.
     #[serde(skip_serializing_if = "Option::is_none")]
     facing_away: Option<[usize; 2]>,
@@ -451,6 +460,7 @@ fn options(args: &SimplifyArgs) -> Result<SimplifyOptions> {
         o = o.with_defer_slack(Some(s));
     }
     o = o.with_facing_repair(!args.no_facing_repair);
+    o = o.with_reshade_flat(!args.no_reshade_flat);
     let fitting = match args.fit_iterations {
         Some(n) => n > 0,
         None => args.fit,
@@ -621,6 +631,7 @@ fn report(
         retries: agg.retries,
         fit_moved: agg.fit_moved,
         edge_swaps: agg.edge_swaps,
+        flat_shading: agg.flat_shading,
         facing_away: agg.facing_away,
         hausdorff: measure.map(|d| {
             if args.absolute || d.bbox_diagonal <= 0.0 {
@@ -664,6 +675,7 @@ struct Aggregate {
     retries: usize,
     fit_moved: usize,
     edge_swaps: usize,
+    flat_shading: bool,
     facing_away: Option<[usize; 2]>,
     cluster: Option<ClusterStats>,
 }
@@ -691,6 +703,7 @@ impl Aggregate {
             retries: 0,
             fit_moved: 0,
             edge_swaps: 0,
+            flat_shading: false,
             facing_away: None,
             cluster: None,
         }
@@ -722,6 +735,7 @@ impl Aggregate {
         self.retries += r.retries;
         self.fit_moved += r.fit_moved;
         self.edge_swaps += r.edge_swaps;
+        self.flat_shading |= r.flat_shading;
         if let Some([b, a]) = r.facing_away {
             let [sb, sa] = self.facing_away.get_or_insert([0, 0]);
             *sb += b;
@@ -857,6 +871,9 @@ fn print_text(r: &CliReport) {
             "  fitting      {} points moved toward the input",
             r.fit_moved
         );
+    }
+    if r.flat_shading {
+        println!("  normals      flat shaded input: simplified without them, output given its facet normals");
     }
     if r.edge_swaps > 0 {
         println!(

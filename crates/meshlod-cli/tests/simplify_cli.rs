@@ -358,3 +358,70 @@ fn cluster_avx2_and_baseline_builds_agree() {
         }
     }
 }
+
+/// A flat-shaded torus (every triangle's corners split off with its facet normal,
+/// as flat-shaded exporters write it) as GLB: simplified to the target, reported
+/// as `flat_shading`, and written back with each corner's normal its triangle's.
+#[test]
+fn flat_shaded_input_is_reshaded() {
+    let dir = tempfile::tempdir().unwrap();
+    let torus = generate::torus(48, 24, 2.0, 0.6);
+    let corners: Vec<u32> = torus.triangles.iter().flatten().copied().collect();
+    let mut flat = meshlod::Mesh::from_triangles(
+        corners
+            .iter()
+            .map(|&v| torus.positions[v as usize])
+            .collect(),
+        (0..torus.triangles.len() as u32)
+            .map(|i| [3 * i, 3 * i + 1, 3 * i + 2])
+            .collect(),
+    );
+    flat.attributes.normals = Some(
+        torus
+            .triangles
+            .iter()
+            .flat_map(|&t| [facet_of(&torus, t); 3])
+            .collect(),
+    );
+    let input = dir.path().join("flat.glb");
+    meshlod::write_mesh(&input, &flat, &WriteOptions::default()).expect("write");
+    let output = dir.path().join("out.glb");
+    let j = json(&simplify(&input, &output, &["--ratio", "0.1", "--json"]));
+    assert_eq!(j["flat_shading"], true);
+    assert_eq!(j["triangles_out"], 230);
+    assert_eq!(j["stop_reason"], "target_reached");
+    let out = read_scene(&output).expect("output reads").flatten();
+    let normals = out.attributes.normals.as_ref().expect("normals");
+    for &t in &out.triangles {
+        let f = [0, 1, 2].map(|k| f64::from(facet_of(&out, t)[k]));
+        for v in t {
+            let n = normals[v as usize];
+            let dot: f64 = (0..3).map(|k| f64::from(n[k]) * f[k]).sum();
+            assert!(dot > 0.9999, "corner normal off its facet: {dot}");
+        }
+    }
+    // Off: the points cannot move, and the report says so.
+    let j = json(&simplify(
+        &input,
+        &output,
+        &["--ratio", "0.1", "--json", "--no-reshade-flat"],
+    ));
+    assert_eq!(j["flat_shading"], false);
+    assert_eq!(j["stop_reason"], "no_legal_collapse");
+}
+
+/// The unit normal of triangle `t` of `m`.
+fn facet_of(m: &meshlod::Mesh, t: [u32; 3]) -> [f32; 3] {
+    let [a, b, c] = t.map(|v| m.positions[v as usize]);
+    let (u, w) = (
+        [0, 1, 2].map(|k| b[k] - a[k]),
+        [0, 1, 2].map(|k| c[k] - a[k]),
+    );
+    let n = [
+        u[1] * w[2] - u[2] * w[1],
+        u[2] * w[0] - u[0] * w[2],
+        u[0] * w[1] - u[1] * w[0],
+    ];
+    let l = (n[0] * n[0] + n[1] * n[1] + n[2] * n[2]).sqrt();
+    n.map(|x| x / l)
+}

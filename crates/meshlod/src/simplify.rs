@@ -13,6 +13,12 @@
 //! 4. **output**: the surviving triangles over a compacted vertex buffer (first-use
 //!    order), attributes interpolated at moved vertices, groups kept.
 //!
+//! A flat-shaded input (every triangle's corners carry its own facet normal, so
+//! every point is split into one vertex per triangle and, taken as seams, no point
+//! could move) goes through these steps without its normals, the vertices they
+//! alone split made one, and the output's corners get their triangles' facet
+//! normals ([`SimplifyOptions::reshade_flat`], [`Report::flat_shading`]).
+//!
 //! # Errors as distances
 //! The reported [`Report::error`] and the [`SimplifyOptions::max_error`] bound are
 //! *distances*: for a collapse, `sqrt(Δ / W)` where `Δ` is the quadric error of the
@@ -250,6 +256,13 @@ pub struct SimplifyOptions {
     /// `false` (it adds 2–54% to the run's time, 1–27% on top of the fitting, whose
     /// input samples it shares).
     pub edge_swaps: bool,
+    /// Flat-shaded input (every triangle's three corners carry one normal, its
+    /// own facet normal, so every point is split into one vertex per triangle and
+    /// no point could move): simplify with the normals set aside and the vertices
+    /// they alone split made one, then give the output's triangles their own
+    /// facet normals (see the `flat` module). A mesh with smooth normals anywhere,
+    /// or with tangents, is not affected. Default `true`.
+    pub reshade_flat: bool,
 }
 
 impl Default for SimplifyOptions {
@@ -281,6 +294,7 @@ impl Default for SimplifyOptions {
             facing_repair: true,
             fit_iterations: 0,
             edge_swaps: false,
+            reshade_flat: true,
         }
     }
 }
@@ -297,6 +311,13 @@ impl SimplifyOptions {
     #[must_use]
     pub fn with_edge_swaps(mut self, swaps: bool) -> Self {
         self.edge_swaps = swaps;
+        self
+    }
+
+    /// Sets [`Self::reshade_flat`].
+    #[must_use]
+    pub fn with_reshade_flat(mut self, on: bool) -> Self {
+        self.reshade_flat = on;
         self
     }
 
@@ -639,6 +660,9 @@ pub struct Report {
     /// Diagonals swapped toward the input ([`SimplifyOptions::edge_swaps`]); 0 when
     /// the swaps did not run.
     pub edge_swaps: usize,
+    /// Whether the input was flat shaded and its output re-shaded
+    /// ([`SimplifyOptions::reshade_flat`]).
+    pub flat_shading: bool,
     /// What vertex clustering did ([`Method::Cluster`] only), including the
     /// non-manifold edge and vertex counts of the result.
     #[serde(skip_serializing_if = "Option::is_none")]
@@ -685,6 +709,28 @@ pub fn simplify_observed(
     let start = Instant::now();
     mesh.validate()?;
     options.check(mesh.positions.len())?;
+    if let Some(flat) = options
+        .reshade_flat
+        .then(|| flat::FlatShading::detect(mesh))
+        .flatten()
+    {
+        let mut inner = options.clone().with_reshade_flat(false);
+        if let Some(l) = options.locked_vertices.as_deref() {
+            inner.locked_vertices = Some(flat.merged_mask(l));
+        }
+        let s = simplify_observed(&flat.merged, &inner, observer)?;
+        let (out, vertex_source) = flat.reshade(mesh, s.mesh, &s.vertex_source);
+        let mut report = s.report;
+        report.vertices_in = mesh.positions.len();
+        report.vertices_out = out.positions.len();
+        report.flat_shading = true;
+        report.seconds = start.elapsed().as_secs_f64();
+        return Ok(Simplified {
+            mesh: out,
+            report,
+            vertex_source,
+        });
+    }
     if options.method == Method::Cluster {
         let target = options.target_for(mesh.triangles.len());
         let c = cluster_mesh(mesh, Some(target), &options.cluster).map_err(|e| {
@@ -886,6 +932,7 @@ pub fn simplify_observed(
         facing_away: facing.map(|f| [f.before, f.after]),
         fit_moved: fitted.moved,
         edge_swaps: fitted.swaps,
+        flat_shading: false,
         cluster: None,
     };
     Ok(Simplified {
@@ -1001,6 +1048,7 @@ fn cluster_result(
         facing_away: None,
         fit_moved: 0,
         edge_swaps: 0,
+        flat_shading: false,
         cluster: Some(c.stats),
     };
     Simplified {
@@ -1132,6 +1180,7 @@ fn close_pairs(surface: &mut Surface, t: f64) -> Vec<[u32; 2]> {
 
 mod facing;
 mod fit;
+mod flat;
 pub use fit::DEFAULT_FIT_ITERATIONS;
 #[cfg(test)]
 mod tests;

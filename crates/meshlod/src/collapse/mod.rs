@@ -33,6 +33,7 @@
 mod surface;
 pub(crate) use surface::FanCsr;
 
+pub(crate) use surface::canonical_wedges;
 pub(crate) use surface::closest_on_triangle;
 pub use surface::{BuildOptions, Repair, Surface, DEAD};
 

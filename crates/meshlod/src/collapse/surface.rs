@@ -1762,7 +1762,7 @@ fn sorted3(t: [u32; 3]) -> [u32; 3] {
 
 /// For every vertex, the first vertex with the same point and bitwise-equal
 /// attributes.
-fn canonical_wedges(mesh: &Mesh, weld: &Weld) -> Vec<u32> {
+pub(crate) fn canonical_wedges(mesh: &Mesh, weld: &Weld) -> Vec<u32> {
     let np = weld.point_count();
     let n = mesh.positions.len();
     let mut count = vec![0u32; np + 1];

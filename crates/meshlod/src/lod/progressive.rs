@@ -155,7 +155,11 @@ impl ProgressiveMesh {
         let mut rec = Recorder::default();
         // The orientation repair's diagonal swaps are not vertex splits: the base
         // mesh is the collapses' result as it stands.
-        let options = &options.clone().with_facing_repair(false);
+        // Flat re-shading would record the collapses over another vertex buffer.
+        let options = &options
+            .clone()
+            .with_facing_repair(false)
+            .with_reshade_flat(false);
         let s = simplify_observed(mesh, options, &mut rec)?;
         if rec.moved_kept {
             return Err(PmError::NotHalfEdge("a collapse moved the kept vertex"));

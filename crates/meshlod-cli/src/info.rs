@@ -33,6 +33,7 @@ struct InfoReport<'a> {
 pub fn run(args: &InfoArgs) -> Result<()> {
     let scene = read_scene(&args.file)?;
     let mesh = scene.flattened();
+    crate::warn_precision(&args.file, &mesh);
     // Topology on world positions welded in f64, so that instances placed by node
     // transforms weld where they truly touch and nowhere else.
     let weld = Weld::exact_f64(&scene.world_positions_f64());

@@ -54,6 +54,26 @@ fn one_line(e: &anyhow::Error) -> String {
     msg
 }
 
+/// Largest float spacing, relative to the bounding-box diagonal, read without a
+/// warning (0.001% of the diagonal: a tenth of the finest Hausdorff means we report).
+const PRECISION_WARN: f64 = 1e-5;
+
+/// Warns on stderr when `mesh`, read from `path`, lies so far from the origin that
+/// its 32-bit positions are coarser than [`PRECISION_WARN`] of its size. Returns
+/// whether it warned.
+pub(crate) fn warn_precision(path: &std::path::Path, mesh: &meshlod::Mesh) -> bool {
+    let (step, diag) = (mesh.position_step(), mesh.bbox_diagonal());
+    let warn = diag > 0.0 && step > PRECISION_WARN * diag;
+    if warn {
+        eprintln!(
+            "meshlod: warning: {}: coordinates this far from the origin are stored as 32-bit floats {step} units apart, {:.4}% of the bounding-box diagonal ({diag:.6}); no result is finer than that. Translate the mesh near the origin first (e.g. subtract a survey offset) to keep its detail.",
+            path.display(),
+            100.0 * step / diag
+        );
+    }
+    warn
+}
+
 fn main() -> ExitCode {
     let cli = Cli::parse();
     let result = match cli.command {

@@ -95,6 +95,8 @@ fn relative(d: &Distances, scale: f64) -> Relative {
 pub fn run(args: &MeasureArgs) -> Result<()> {
     let a = read_mesh(&args.a)?;
     let b = read_mesh(&args.b)?;
+    crate::warn_precision(&args.a, &a);
+    crate::warn_precision(&args.b, &b);
     if a.triangles.is_empty() || b.triangles.is_empty() {
         bail!(
             "{}: has no triangles to measure",

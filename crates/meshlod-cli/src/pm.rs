@@ -133,6 +133,7 @@ pub fn run(cmd: &PmCommand) -> Result<()> {
 fn build(a: &BuildArgs) -> Result<()> {
     let t0 = Instant::now();
     let mesh = meshlod::read_scene(&a.input)?.flatten();
+    crate::warn_precision(&a.input, &mesh);
     let o = match a.method {
         PmMethodArg::Melax => SimplifyOptions::default().with_method(Method::Melax),
         PmMethodArg::Qem => SimplifyOptions::default().with_placement(Placement::Endpoint),

@@ -486,6 +486,11 @@ pub fn run(args: &SimplifyArgs) -> Result<()> {
     let t0 = Instant::now();
     let scene = read_scene(&args.input)?;
     let read_seconds = t0.elapsed().as_secs_f64();
+    for part in &scene.parts {
+        if crate::warn_precision(&args.input, &part.mesh) {
+            break;
+        }
+    }
     let phases = Phases::after_read();
     let in_format = Format::from_path(&args.input);
     let out_format = Format::from_path(&args.output);

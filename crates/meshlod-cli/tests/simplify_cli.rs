@@ -425,3 +425,35 @@ fn facet_of(m: &meshlod::Mesh, t: [u32; 3]) -> [f32; 3] {
     let l = (n[0] * n[0] + n[1] * n[1] + n[2] * n[2]).sqrt();
     n.map(|x| x / l)
 }
+
+/// A mesh far from the origin (a 5-unit torus at UTM-like coordinates) is read with
+/// a warning that its 32-bit positions are coarse; the same torus at the origin is
+/// read without one. Both still simplify.
+#[test]
+fn far_from_the_origin_warns_about_precision() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut far = generate::torus(48, 24, 2.0, 0.6);
+    for p in &mut far.positions {
+        p[0] += 500_000.0;
+        p[1] += 4_000_000.0;
+    }
+    let input = dir.path().join("far.ply");
+    meshlod::write_mesh(&input, &far, &WriteOptions::default()).expect("write");
+    let output = dir.path().join("out.ply");
+    let out = simplify(&input, &output, &["--ratio", "0.5", "--json"]);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        stderr.contains("warning") && stderr.contains("32-bit floats 0.25 units apart"),
+        "{stderr}"
+    );
+    assert_eq!(json(&out)["triangles_out"], 1152);
+    let near = simplify(
+        torus_file(dir.path()),
+        &output,
+        &["--ratio", "0.5", "--json"],
+    );
+    assert!(
+        !String::from_utf8_lossy(&near.stderr).contains("warning"),
+        "a warning for a mesh at the origin"
+    );
+}

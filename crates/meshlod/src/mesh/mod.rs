@@ -436,6 +436,26 @@ impl Mesh {
         })
     }
 
+    /// The spacing of 32-bit floats at the largest absolute coordinate, in the
+    /// mesh's units (0 for an empty mesh or one at the origin): no position, and so
+    /// no simplified result, is finer than this. A mesh far from the origin (survey
+    /// or map coordinates: 4·10⁶ in UTM northings gives 0.25 units) loses detail
+    /// when stored in `f32`; compare it with [`Self::bbox_diagonal`].
+    #[must_use]
+    pub fn position_step(&self) -> f64 {
+        let m = self
+            .positions
+            .iter()
+            .flatten()
+            .fold(0.0f32, |m, c| m.max(c.abs()));
+        if m > 0.0 && m.is_finite() {
+            // 2^(e − 23) for m in [2^e, 2^(e+1)): the gap between neighbouring floats.
+            f64::from(m).log2().floor().exp2() * (-23.0f64).exp2()
+        } else {
+            0.0
+        }
+    }
+
     /// Appends `other` (its vertices, triangles, attributes and groups; group ids are
     /// offset by `group_offset`).
     pub fn append(&mut self, other: &Mesh, group_offset: u32) {
@@ -550,6 +570,24 @@ impl Mesh {
 
 #[cfg(test)]
 mod tests {
+    #[test]
+    fn position_step_is_the_float_spacing_at_the_largest_coordinate() {
+        let m = super::Mesh::from_triangles(
+            vec![[4.0e6, 0.0, 0.0], [4.0e6, 1.0, 0.0], [4.0e6, 0.0, 1.0]],
+            vec![[0, 1, 2]],
+        );
+        // 4·10⁶ lies in [2^21, 2^22): floats are 2^(21 − 23) = 0.25 apart there.
+        assert_eq!(m.position_step(), 0.25);
+        let next = 4.0e6f32 + 0.25;
+        assert!(next > 4.0e6 && 4.0e6f32 + 0.1 == 4.0e6);
+        let unit = super::Mesh::from_triangles(
+            vec![[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, -1.5]],
+            vec![[0, 1, 2]],
+        );
+        assert_eq!(unit.position_step(), (-23.0f64).exp2());
+        assert_eq!(super::Mesh::default().position_step(), 0.0);
+    }
+
     use super::*;
 
     #[test]

@@ -47,19 +47,20 @@ pub fn run(args: &InfoArgs) -> Result<()> {
         stats: &stats,
     };
     if args.json {
-        println!("{}", serde_json::to_string(&report)?);
+        out!("{}", serde_json::to_string(&report)?);
         return Ok(());
     }
     let t = &stats.topology;
-    println!("{}  ({format})", report.file);
+    out!("{}  ({format})", report.file);
     if report.parts > 1 || report.instances != report.parts {
-        println!(
+        out!(
             "  scene           {} meshes, {} instances (counts below are per instance)",
-            report.parts, report.instances
+            report.parts,
+            report.instances
         );
     }
-    println!("  vertices        {}", stats.vertices);
-    println!("  triangles       {}", stats.triangles);
+    out!("  vertices        {}", stats.vertices);
+    out!("  triangles       {}", stats.triangles);
     let attrs: Vec<String> = stats
         .attributes
         .iter()
@@ -68,7 +69,7 @@ pub fn run(args: &InfoArgs) -> Result<()> {
                 .map_or_else(|_| "?".into(), |v| v.as_str().unwrap_or("?").to_string())
         })
         .collect();
-    println!(
+    out!(
         "  attributes      {}",
         if attrs.is_empty() {
             "none".to_string()
@@ -76,42 +77,52 @@ pub fn run(args: &InfoArgs) -> Result<()> {
             attrs.join(", ")
         }
     );
-    println!("  groups          {}", stats.groups);
+    out!("  groups          {}", stats.groups);
     match (stats.bbox_min, stats.bbox_max) {
-        (Some(lo), Some(hi)) => println!(
+        (Some(lo), Some(hi)) => out!(
             "  bounding box    ({}, {}, {}) .. ({}, {}, {}), diagonal {:.6}",
-            lo[0], lo[1], lo[2], hi[0], hi[1], hi[2], stats.bbox_diagonal
+            lo[0],
+            lo[1],
+            lo[2],
+            hi[0],
+            hi[1],
+            hi[2],
+            stats.bbox_diagonal
         ),
-        _ => println!("  bounding box    empty"),
+        _ => out!("  bounding box    empty"),
     }
-    println!(
+    out!(
         "  welded vertices {} ({} duplicate positions)",
-        t.welded_vertices, stats.duplicate_positions
+        t.welded_vertices,
+        stats.duplicate_positions
     );
-    println!("  edges           {}", t.edges);
-    println!(
+    out!("  edges           {}", t.edges);
+    out!(
         "  boundary        {} edges in {} loops",
-        t.boundary_edges, t.boundary_loops
+        t.boundary_edges,
+        t.boundary_loops
     );
-    println!(
+    out!(
         "  non-manifold    {} edges, {} vertices",
-        t.non_manifold_edges, t.non_manifold_vertices
+        t.non_manifold_edges,
+        t.non_manifold_vertices
     );
-    println!("  components      {}", t.components);
+    out!("  components      {}", t.components);
     match t.genus {
-        Some(g) => println!(
+        Some(g) => out!(
             "  euler / genus   {} / {g} (closed manifold)",
             t.euler_characteristic
         ),
-        None => println!(
+        None => out!(
             "  euler / genus   {} / - (not a closed manifold)",
             t.euler_characteristic
         ),
     }
-    println!(
+    out!(
         "  degenerate      {} triangles; duplicate {} triangles",
-        t.degenerate_triangles, t.duplicate_triangles
+        t.degenerate_triangles,
+        t.duplicate_triangles
     );
-    println!("  unreferenced    {} vertices", stats.unreferenced_vertices);
+    out!("  unreferenced    {} vertices", stats.unreferenced_vertices);
     Ok(())
 }

@@ -4,6 +4,18 @@
 //! the library's options and runs. Errors carry the file name and are printed by
 //! `anyhow`; the exit status is non-zero on any error.
 
+/// `println!` that ends the process quietly when standard output is closed
+/// (`meshlod info big.ply | head -3`) instead of panicking, and with an error
+/// message when writing fails otherwise.
+macro_rules! out {
+    ($($arg:tt)*) => {{
+        use std::io::Write as _;
+        if let Err(e) = writeln!(std::io::stdout(), $($arg)*) {
+            $crate::stdout_failed(&e);
+        }
+    }};
+}
+
 mod heatmap;
 mod info;
 mod measure;
@@ -72,6 +84,17 @@ pub(crate) fn warn_precision(path: &std::path::Path, mesh: &meshlod::Mesh) -> bo
         );
     }
     warn
+}
+
+/// Ends the process after a failed write to standard output: with the status a
+/// process killed by `SIGPIPE` has (141) when the reader went away, as other
+/// command-line tools do, and with a message and status 1 otherwise.
+pub(crate) fn stdout_failed(e: &std::io::Error) -> ! {
+    if e.kind() == std::io::ErrorKind::BrokenPipe {
+        std::process::exit(141);
+    }
+    eprintln!("meshlod: error: writing to standard output: {e}");
+    std::process::exit(1);
 }
 
 fn main() -> ExitCode {

@@ -147,31 +147,42 @@ pub fn run(args: &MeasureArgs) -> Result<()> {
         seconds,
     };
     if args.json {
-        println!("{}", serde_json::to_string(&report)?);
+        out!("{}", serde_json::to_string(&report)?);
         return Ok(());
     }
     let pct = |x: f64| 100.0 * x / d.bbox_diagonal.max(f64::MIN_POSITIVE);
-    println!("A: {}", report.a);
-    println!("B: {}", report.b);
-    println!(
+    out!("A: {}", report.a);
+    out!("B: {}", report.b);
+    out!(
         "bounding-box diagonal of A: {:.6} (largest side {:.6})",
-        d.bbox_diagonal, d.max_extent
+        d.bbox_diagonal,
+        d.max_extent
     );
-    println!(
+    out!(
         "{:<14}{:>14}{:>14}{:>14}{:>12}",
-        "", "max", "mean", "rms", "samples"
+        "",
+        "max",
+        "mean",
+        "rms",
+        "samples"
     );
     for (name, o) in [("A -> B", &d.a_to_b), ("B -> A", &d.b_to_a)] {
-        println!(
+        out!(
             "{name:<14}{:>14.6e}{:>14.6e}{:>14.6e}{:>12}",
-            o.max, o.mean, o.rms, o.samples
+            o.max,
+            o.mean,
+            o.rms,
+            o.samples
         );
     }
-    println!(
+    out!(
         "{:<14}{:>14.6e}{:>14.6e}{:>14.6e}",
-        "symmetric", d.hausdorff, d.mean, d.rms
+        "symmetric",
+        d.hausdorff,
+        d.mean,
+        d.rms
     );
-    println!(
+    out!(
         "{:<14}{:>13.4}%{:>13.5}%{:>13.5}%   of the bbox diagonal",
         "relative",
         pct(d.hausdorff),
@@ -183,24 +194,26 @@ pub fn run(args: &MeasureArgs) -> Result<()> {
     } else {
         &d.b_to_a
     };
-    println!(
+    out!(
         "max at ({:.6}, {:.6}, {:.6})",
-        far.max_at[0], far.max_at[1], far.max_at[2]
+        far.max_at[0],
+        far.max_at[1],
+        far.max_at[2]
     );
     if let Some(s) = &report.screen {
         if let Some(px) = s.pixels {
-            println!(
+            out!(
                 "screen: {px:.3} px at distance {} ({} px high, fov {}°)",
                 s.distance.unwrap_or(0.0),
                 s.screen_height_px,
                 s.fov_degrees
             );
         }
-        println!(
+        out!(
             "screen: the Hausdorff error covers one pixel at distance {:.6}",
             s.distance_for_one_pixel
         );
     }
-    println!("time: {seconds:.3} s");
+    out!("time: {seconds:.3} s");
     Ok(())
 }

@@ -156,21 +156,23 @@ fn build(a: &BuildArgs) -> Result<()> {
         stop_reason: report.stop_detail,
     };
     if a.json {
-        println!("{}", serde_json::to_string(&r)?);
+        out!("{}", serde_json::to_string(&r)?);
     } else {
-        println!("{} -> {}  ({})", r.input, r.output, r.method);
-        println!(
+        out!("{} -> {}  ({})", r.input, r.output, r.method);
+        out!(
             "  triangles    {} in, {} after repair; base mesh {}",
-            r.triangles_in, r.triangles_full, r.base_triangles
+            r.triangles_in,
+            r.triangles_full,
+            r.base_triangles
         );
-        println!(
+        out!(
             "  splits       {} ({} bytes, {:.1} bytes per split)",
             r.vertex_splits,
             r.bytes,
             r.bytes as f64 / r.vertex_splits.max(1) as f64
         );
-        println!("  base         {}", r.stop_reason);
-        println!("  time         {:.3} s", r.seconds);
+        out!("  base         {}", r.stop_reason);
+        out!("  time         {:.3} s", r.seconds);
     }
     Ok(())
 }
@@ -222,23 +224,27 @@ fn extract(a: &ExtractArgs) -> Result<()> {
         seconds: t0.elapsed().as_secs_f64(),
     };
     if a.json {
-        println!("{}", serde_json::to_string(&r)?);
+        out!("{}", serde_json::to_string(&r)?);
     } else {
-        println!("{} -> {}", r.input, r.output);
+        out!("{} -> {}", r.input, r.output);
         if !r.complete {
-            println!(
+            out!(
                 "  note         the file holds {} of the {} splits its header announces (a prefix)",
-                r.splits_in_file, r.splits_in_header
+                r.splits_in_file,
+                r.splits_in_header
             );
         }
-        println!(
+        out!(
             "  level        {} of {} splits: {} triangles, {} vertices",
-            r.level, r.splits_in_file, r.triangles, r.vertices
+            r.level,
+            r.splits_in_file,
+            r.triangles,
+            r.vertices
         );
         if let (Some(g), Some(l)) = (&r.geomorph, r.geomorph_level) {
-            println!("  geomorph     {g} (positions at level {l})");
+            out!("  geomorph     {g} (positions at level {l})");
         }
-        println!("  time         {:.3} s", r.seconds);
+        out!("  time         {:.3} s", r.seconds);
     }
     Ok(())
 }

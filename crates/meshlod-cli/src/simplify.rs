@@ -652,7 +652,7 @@ fn report(
         memory,
     };
     if args.json {
-        println!("{}", serde_json::to_string(&report)?);
+        out!("{}", serde_json::to_string(&report)?);
     } else {
         print_text(&report);
     }
@@ -827,26 +827,26 @@ fn print_text(r: &CliReport) {
             0.0
         }
     };
-    println!("{} -> {}  ({})", r.input, r.output, r.method);
+    out!("{} -> {}  ({})", r.input, r.output, r.method);
     if r.parts > 1 {
-        println!("  parts        {} (each simplified separately)", r.parts);
+        out!("  parts        {} (each simplified separately)", r.parts);
     }
-    println!(
+    out!(
         "  triangles    {} -> {} ({:.2}%; target {})",
         r.triangles_in,
         r.triangles_out,
         pct(r.triangles_out, r.triangles_in),
         r.target_triangles
     );
-    println!("  vertices     {} -> {}", r.vertices_in, r.vertices_out);
-    println!(
+    out!("  vertices     {} -> {}", r.vertices_in, r.vertices_out);
+    out!(
         "  error        {:.4}% of the diagonal ({:.4e} mesh units; quadric RMS distance)",
         100.0 * r.error_relative,
         r.error_absolute
     );
-    println!("  stopped      {}: {}", r.stop_reason, r.stop_detail);
+    out!("  stopped      {}: {}", r.stop_reason, r.stop_detail);
     if let Some(c) = &r.cluster {
-        println!(
+        out!(
             "  clustering   {} representative, cell {:.4e}, {} occupied cells; {} triangles collapsed, {} duplicates, {} flattened, {} added by the coverage repair",
             c.representative.name(),
             c.cell_size,
@@ -856,39 +856,44 @@ fn print_text(r: &CliReport) {
             c.flattened_triangles,
             c.coverage_triangles
         );
-        println!(
+        out!(
             "  topology     {} non-manifold edges, {} non-manifold vertices, {} boundary edges",
-            c.non_manifold_edges, c.non_manifold_vertices, c.boundary_edges
+            c.non_manifold_edges,
+            c.non_manifold_vertices,
+            c.boundary_edges
         );
     }
-    println!(
+    out!(
         "  collapses    {} ({} non-edge); repaired {} degenerate, {} duplicate triangles",
-        r.collapses, r.non_edge_contractions, r.degenerate_removed, r.duplicate_removed
+        r.collapses,
+        r.non_edge_contractions,
+        r.degenerate_removed,
+        r.duplicate_removed
     );
     if let Some([before, after]) = r.facing_away {
-        println!(
+        out!(
             "  orientation  {before} triangles facing away from the input, {after} after {} diagonal swaps",
             r.facing_flips
         );
     }
     if r.fit_moved > 0 {
-        println!(
+        out!(
             "  fitting      {} points moved toward the input",
             r.fit_moved
         );
     }
     if r.flat_shading {
-        println!("  normals      flat shaded input: simplified without them, output given its facet normals");
+        out!("  normals      flat shaded input: simplified without them, output given its facet normals");
     }
     if r.edge_swaps > 0 {
-        println!(
+        out!(
             "  swaps        {} diagonals swapped toward the input",
             r.edge_swaps
         );
     }
     if let Some(d) = &r.measure {
         let diag = d.bbox_diagonal.max(f64::MIN_POSITIVE);
-        println!(
+        out!(
             "  measured     Hausdorff {:.4}%, mean {:.5}%, rms {:.5}% of the diagonal ({} samples)",
             100.0 * d.hausdorff / diag,
             100.0 * d.mean / diag,
@@ -896,19 +901,21 @@ fn print_text(r: &CliReport) {
             d.a_to_b.samples + d.b_to_a.samples
         );
     }
-    println!(
+    out!(
         "  time         {:.3} s simplify, {:.3} s read, {:.3} s write",
-        r.seconds, r.read_seconds, r.write_seconds
+        r.seconds,
+        r.read_seconds,
+        r.write_seconds
     );
     if let Some(m) = &r.memory {
         let mib = |b: u64| b as f64 / (1024.0 * 1024.0);
         match m.extra_bytes_per_input_triangle {
-            Some(extra) => println!(
+            Some(extra) => out!(
                 "  memory       peak {:.1} MiB resident; simplifying added {:.0} bytes per input triangle",
                 mib(m.peak_rss_bytes),
                 extra
             ),
-            None => println!("  memory       peak {:.1} MiB resident", mib(m.peak_rss_bytes)),
+            None => out!("  memory       peak {:.1} MiB resident", mib(m.peak_rss_bytes)),
         }
     }
 }

@@ -178,3 +178,27 @@ fn simplify_measure_adds_the_hausdorff_distance() {
         (m["hausdorff"].as_f64().unwrap() / m["bbox_diagonal"].as_f64().unwrap() - h).abs() < 1e-12
     );
 }
+
+/// Standard output closed before the report is printed (`meshlod info … | head`
+/// where the reader has gone): the process ends with the broken-pipe status 141 and
+/// no panic message, like other command-line tools.
+#[test]
+fn a_closed_stdout_ends_quietly() {
+    use std::process::Stdio;
+    let child = Command::new(env!("CARGO_BIN_EXE_meshlod"))
+        .args([
+            "info",
+            data_dir().join("stanford-bunny.obj").to_str().unwrap(),
+        ])
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("run meshlod");
+    let mut child = child;
+    // Close the read end now: reading the bunny takes far longer than this.
+    drop(child.stdout.take());
+    let out = child.wait_with_output().expect("wait");
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(!stderr.contains("panicked"), "{stderr}");
+    assert_eq!(out.status.code(), Some(141), "{stderr}");
+}

@@ -1,7 +1,7 @@
 //! Heat-map export: a mesh with a per-vertex scalar, as PLY `quality` plus colours.
 
-use anyhow::{Context, Result};
-use meshlod::io::ply;
+use anyhow::{bail, Context, Result};
+use meshlod::io::{ply, Format, WriteOptions};
 use meshlod::Mesh;
 use std::path::Path;
 
@@ -29,11 +29,14 @@ pub fn ramp(t: f64) -> [f32; 4] {
     [q(c[0]), q(c[1]), q(c[2]), 1.0]
 }
 
-/// Writes `mesh` to `path` (binary PLY) with `values[i]` as vertex `i`'s `quality` and a
-/// colour from [`ramp`] scaled to the largest finite value.
+/// Writes `mesh` to `path` with a colour from [`ramp`] per vertex, scaled to the
+/// largest finite value of `values`; as binary PLY (by the extension) also with
+/// `values[i]` as vertex `i`'s `quality`. Other formats that hold vertex colours
+/// (OBJ, OFF, glTF) get the colours alone.
 ///
 /// # Errors
-/// The file cannot be written.
+/// The file cannot be written, or its format holds no vertex colours (STL) or is
+/// unknown.
 pub fn write(path: &Path, mesh: &Mesh, values: &[f64]) -> Result<()> {
     let max = values
         .iter()
@@ -47,6 +50,21 @@ pub fn write(path: &Path, mesh: &Mesh, values: &[f64]) -> Result<()> {
             .map(|&v| ramp(if max > 0.0 { v / max } else { 0.0 }))
             .collect(),
     );
+    match Format::from_path(path) {
+        Some(Format::Ply) => {}
+        Some(Format::Stl) => bail!(
+            "{}: STL holds no vertex colours; write the heat map as .ply, .obj, .off or .glb",
+            path.display()
+        ),
+        Some(_) => {
+            return meshlod::write_mesh(path, &m, &WriteOptions::default())
+                .with_context(|| format!("{}: cannot write the heat map", path.display()));
+        }
+        None => bail!(
+            "{}: unknown heat-map format; use .ply (distances and colours), .obj, .off or .glb",
+            path.display()
+        ),
+    }
     let q: Vec<f32> = values.iter().map(|&v| v as f32).collect();
     let mut bytes = Vec::new();
     ply::write_with_quality(&m, &q, false, &mut bytes)

@@ -9,6 +9,7 @@ use std::time::Instant;
 
 /// Arguments of `meshlod measure`.
 #[derive(Debug, clap::Args)]
+#[command(allow_negative_numbers = true)]
 pub struct MeasureArgs {
     /// The reference mesh (relative errors are fractions of its bounding-box diagonal).
     pub a: PathBuf,
@@ -24,8 +25,9 @@ pub struct MeasureArgs {
     /// Print one JSON object instead of text.
     #[arg(long)]
     pub json: bool,
-    /// Write B with each vertex's distance to A as a PLY `quality` property and a
-    /// blue→red colour map.
+    /// Write B with a blue→red colour map of each vertex's distance to A (and, as
+    /// .ply, the distance itself as a `quality` property); .obj, .off and .glb get
+    /// the colours alone.
     #[arg(long, value_name = "OUT.ply")]
     pub heatmap: Option<PathBuf>,
     /// Screen height in pixels, for screen-space error.

@@ -35,6 +35,7 @@ pub enum PmCommand {
 
 /// Arguments of `meshlod pm build`.
 #[derive(Debug, clap::Args)]
+#[command(allow_negative_numbers = true)]
 pub struct BuildArgs {
     /// Input mesh (.obj .ply .stl .off .gltf .glb .m); scenes are flattened.
     pub input: PathBuf,

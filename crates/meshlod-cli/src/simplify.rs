@@ -35,6 +35,7 @@ use std::time::Instant;
 
 /// Arguments of `meshlod simplify`.
 #[derive(Debug, clap::Args)]
+#[command(allow_negative_numbers = true)]
 pub struct SimplifyArgs {
     /// Input mesh (.obj .ply .stl .off .gltf .glb .m).
     pub input: PathBuf,
@@ -717,20 +718,21 @@ impl Aggregate {
     /// The totals of one run over the whole input.
     fn single(r: Report) -> Self {
         let mut a = Self::empty(1, r.bbox_diagonal);
-        a.add(&r);
+        a.add(&r, 1, 1.0);
         a.stop_reason = r.stop_reason;
         a.stop_detail = r.stop_detail;
         a
     }
 
-    /// Adds one part's counts (the stop reason is the caller's to set).
-    fn add(&mut self, r: &Report) {
-        self.triangles_in += r.triangles_in;
-        self.vertices_in += r.vertices_in;
-        self.target_triangles += r.target_triangles;
-        self.triangles_out += r.triangles_out;
-        self.vertices_out += r.vertices_out;
-        self.error_absolute = self.error_absolute.max(r.error_absolute);
+    /// Adds one part's counts, drawn `instances` times and scaled by at most
+    /// `scale` into the scene (the stop reason is the caller's to set).
+    fn add(&mut self, r: &Report, instances: usize, scale: f64) {
+        self.triangles_in += instances * r.triangles_in;
+        self.vertices_in += instances * r.vertices_in;
+        self.target_triangles += instances * r.target_triangles;
+        self.triangles_out += instances * r.triangles_out;
+        self.vertices_out += instances * r.vertices_out;
+        self.error_absolute = self.error_absolute.max(scale * r.error_absolute);
         self.seconds += r.seconds;
         self.collapses += r.collapses;
         self.non_edge += r.non_edge_contractions;
@@ -756,15 +758,43 @@ impl Aggregate {
     }
 }
 
-/// Simplifies every part of a glTF scene with the same ratio; absolute distances
-/// are the scene's (flattened) diagonal times the relative ones.
+/// The largest factor by which `m` (column-major) stretches a length: the spectral
+/// norm of its linear part, by power iteration on `MᵀM` (1 for a zero matrix).
+fn stretch(m: &meshlod::io::Matrix4) -> f64 {
+    let a: [[f64; 3]; 3] = std::array::from_fn(|c| std::array::from_fn(|r| f64::from(m[c][r])));
+    // (MᵀM)_ij = column i · column j.
+    let g: [[f64; 3]; 3] =
+        std::array::from_fn(|i| std::array::from_fn(|j| (0..3).map(|k| a[i][k] * a[j][k]).sum()));
+    let mut v = [1.0, 0.7, 0.4];
+    let mut lambda = 0.0;
+    for _ in 0..64 {
+        let w: [f64; 3] = std::array::from_fn(|i| (0..3).map(|j| g[i][j] * v[j]).sum());
+        let n = w.iter().map(|x| x * x).sum::<f64>().sqrt();
+        if !(n.is_finite() && n > 0.0) {
+            return 1.0;
+        }
+        lambda = n;
+        v = w.map(|x| x / n);
+    }
+    lambda.sqrt()
+}
+
+/// Simplifies every part of a glTF scene with the same ratio. Distances are the
+/// scene's (world) ones, the relative ones times its flattened diagonal: a part
+/// drawn with a scale works in its own units, so its bounds are divided by its
+/// instances' largest stretch and its error multiplied by it. Triangle counts are
+/// per instance, as `meshlod info` counts them.
 fn simplify_parts(
     scene: &Scene,
     opts: &SimplifyOptions,
     diag: f64,
     progress: &mut Progress,
 ) -> Result<(Scene, Aggregate)> {
-    let total: usize = scene.parts.iter().map(|p| p.mesh.triangles.len()).sum();
+    let total: usize = scene
+        .parts
+        .iter()
+        .map(|p| p.mesh.triangles.len() * p.instances.len())
+        .sum();
     let mut part_opts = opts.clone();
     if opts.ratio.is_none() {
         if let Some(n) = opts.target_triangles {
@@ -783,16 +813,29 @@ fn simplify_parts(
             a @ Distance::Absolute(_) => a,
         })
     };
-    part_opts.max_error = abs(opts.max_error);
-    part_opts.pair_threshold = abs(opts.pair_threshold);
+    let (max_error, pair_threshold) = (abs(opts.max_error), abs(opts.pair_threshold));
     let mut out = scene.clone();
     let mut agg = Aggregate::empty(scene.parts.len(), diag);
     let mut first_other: Option<(StopReason, String)> = None;
     for (i, part) in scene.parts.iter().enumerate() {
+        let scale = part
+            .instances
+            .iter()
+            .map(stretch)
+            .fold(0.0, f64::max)
+            .max(f64::MIN_POSITIVE);
+        let local = |d: Option<Distance>| {
+            d.map(|d| match d {
+                Distance::Absolute(a) => Distance::Absolute(a / scale),
+                r @ Distance::Relative(_) => r,
+            })
+        };
+        part_opts.max_error = local(max_error);
+        part_opts.pair_threshold = local(pair_threshold);
         let s = simplify_observed(&part.mesh, &part_opts, progress)
             .with_context(|| format!("part {i} ({})", part.name.as_deref().unwrap_or("unnamed")))?;
         let r = &s.report;
-        agg.add(r);
+        agg.add(r, part.instances.len(), scale);
         if !matches!(
             r.stop_reason,
             StopReason::TargetReached | StopReason::EmptyInput

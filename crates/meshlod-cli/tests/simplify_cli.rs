@@ -457,3 +457,132 @@ fn far_from_the_origin_warns_about_precision() {
         "a warning for a mesh at the origin"
     );
 }
+
+/// A glTF scene whose one mesh is drawn twice, once at a scale of 100: the parts
+/// are simplified in their own units, so `--triangles` counts both instances (as
+/// `meshlod info` does), and the reported error and `--max-error` are the scene's
+/// distances — the same as for the flattened scene written as OBJ.
+#[test]
+fn gltf_instances_and_scales_count_in_the_scene() {
+    use meshlod::io::{Part, Scene, IDENTITY};
+    let dir = tempfile::tempdir().unwrap();
+    let torus = generate::torus(48, 24, 2.0, 0.6);
+    let mut big = IDENTITY;
+    for (c, col) in big.iter_mut().enumerate().take(3) {
+        col[c] = 100.0;
+    }
+    big[3] = [500.0, 0.0, 0.0, 1.0];
+    let mut scene = Scene::from_mesh(torus);
+    scene.parts = vec![Part {
+        name: Some("torus".into()),
+        mesh: scene.parts[0].mesh.clone(),
+        instances: vec![IDENTITY, big],
+    }];
+    let input = dir.path().join("scene.glb");
+    meshlod::write_scene(&input, &scene, &WriteOptions::default()).expect("write");
+    // Counts: 2 × 2304 triangles in, the target over both instances.
+    let glb = dir.path().join("out.glb");
+    let j = json(&simplify(&input, &glb, &["--triangles", "460", "--json"]));
+    assert_eq!(j["triangles_in"], 4608);
+    assert_eq!(j["triangles_out"], 460);
+    let out = read_scene(&glb).expect("reads").flatten();
+    assert_eq!(out.triangles.len(), 460);
+    // Errors in the scene's units, as for the flattened scene.
+    let obj = dir.path().join("out.obj");
+    let a = json(&simplify(
+        &input,
+        &glb,
+        &["--max-error", "0.0005", "--json"],
+    ));
+    let b = json(&simplify(
+        &input,
+        &obj,
+        &["--max-error", "0.0005", "--json"],
+    ));
+    let (ea, eb) = (a["error"].as_f64().unwrap(), b["error"].as_f64().unwrap());
+    assert!(ea <= 0.0005 && eb <= 0.0005, "errors {ea} {eb}");
+    assert!(
+        ea > 0.5 * eb && ea < 2.0 * eb,
+        "glb error {ea} against obj {eb}"
+    );
+}
+
+/// Writing `Duck0.gltf` beside `Duck.gltf`, whose buffer is `Duck0.bin`, would
+/// replace the input's buffer with the output's: refused, naming the clash, and the
+/// input still reads.
+#[test]
+fn gltf_output_never_overwrites_the_input_buffer() {
+    let dir = tempfile::tempdir().unwrap();
+    let src = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../tests/data/Duck");
+    for f in ["Duck.gltf", "Duck0.bin", "DuckCM.png"] {
+        std::fs::copy(src.join(f), dir.path().join(f)).expect("copy the Duck");
+    }
+    let input = dir.path().join("Duck.gltf");
+    let out = simplify(&input, dir.path().join("Duck0.gltf"), &["--ratio", "0.5"]);
+    assert!(!out.status.success());
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(stderr.contains("would overwrite buffer 0"), "{stderr}");
+    assert_eq!(
+        read_scene(&input)
+            .expect("input intact")
+            .flatten()
+            .triangles
+            .len(),
+        4212
+    );
+}
+
+/// `measure --heatmap` writes the format its extension names: PLY with the
+/// distances, OBJ with the colours; STL, which holds no colours, is refused.
+#[test]
+fn heat_map_follows_the_extension() {
+    let dir = tempfile::tempdir().unwrap();
+    let input = torus_file(dir.path());
+    let coarse = dir.path().join("coarse.ply");
+    json(&simplify(&input, &coarse, &["--ratio", "0.2", "--json"]));
+    for ext in ["ply", "obj"] {
+        let hm = dir.path().join(format!("hm.{ext}"));
+        let out = meshlod(&[
+            "measure",
+            input.to_str().unwrap(),
+            coarse.to_str().unwrap(),
+            "--heatmap",
+            hm.to_str().unwrap(),
+        ]);
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        let m = read_scene(&hm).expect("heat map reads").flatten();
+        assert!(m.attributes.colors.is_some(), "{ext}: no colours");
+    }
+    let hm = dir.path().join("hm.stl");
+    let out = meshlod(&[
+        "measure",
+        input.to_str().unwrap(),
+        coarse.to_str().unwrap(),
+        "--heatmap",
+        hm.to_str().unwrap(),
+    ]);
+    assert!(!out.status.success());
+    assert!(String::from_utf8_lossy(&out.stderr).contains("STL holds no vertex colours"));
+}
+
+/// A negative number after a flag is taken as its value and refused with the
+/// option's own message (not clap's "unexpected argument '-1'").
+#[test]
+fn negative_values_get_the_options_message() {
+    let dir = tempfile::tempdir().unwrap();
+    let input = torus_file(dir.path());
+    let output = dir.path().join("out.ply");
+    for (flag, says) in [("--ratio", "not in [0, 1]"), ("--max-error", "max_error")] {
+        let out = simplify(&input, &output, &[flag, "-1"]);
+        assert!(!out.status.success());
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert!(
+            stderr.contains(says) && !stderr.contains("unexpected argument"),
+            "{stderr}"
+        );
+    }
+}

@@ -141,6 +141,8 @@ pub struct SimplifyOptions {
     /// larger count wins (whichever is reached first).
     pub target_triangles: Option<usize>,
     /// Stop before any collapse whose error exceeds this distance. Default `None`.
+    /// [`Method::Cluster`] has no such stop: there it is refused unless a ratio, a
+    /// triangle count or a cell size is given as well.
     pub max_error: Option<Distance>,
     /// Keep every boundary point where it is (never moved, never removed). Default
     /// `false`.
@@ -510,6 +512,20 @@ impl SimplifyOptions {
                     format!("{} is not a finite non-negative distance", e.value()),
                 );
             }
+        }
+        if self.method == Method::Cluster
+            && self.max_error.is_some()
+            && self.ratio.is_none()
+            && self.target_triangles.is_none()
+            && self.cluster.cell_size.is_none()
+        {
+            // The count would be 0 and the grid as coarse as that asks.
+            return bad(
+                "max_error",
+                "vertex clustering does not stop at an error: give a cell size (every \
+                 point moves at most its cell's diagonal), a ratio or a triangle count"
+                    .to_string(),
+            );
         }
         if let Some(t) = self.pair_threshold {
             if !(t.value() >= 0.0 && t.value().is_finite()) {

@@ -18,6 +18,10 @@ struct Caps {
     uv0: bool,
     colors: bool,
     groups: bool,
+    /// The format stores `v` top-down (glTF): the reader and writer map `v ↦ 1 − v`,
+    /// so a coordinate comes back as `1 − (1 − v)` in `f32` (the same for the value
+    /// that comes back: that rounding is idempotent). Compared through it.
+    uv_flipped: bool,
 }
 
 fn caps(format: Format) -> Caps {
@@ -26,10 +30,14 @@ fn caps(format: Format) -> Caps {
         uv0: true,
         colors: true,
         groups: true,
+        uv_flipped: false,
     };
     match format {
         Format::Obj => all,
-        Format::Gltf | Format::Glb => all,
+        Format::Gltf | Format::Glb => Caps {
+            uv_flipped: true,
+            ..all
+        },
         Format::Ply => Caps {
             groups: false,
             ..all
@@ -45,12 +53,14 @@ fn caps(format: Format) -> Caps {
             uv0: false,
             colors: false,
             groups: false,
+            uv_flipped: false,
         },
         Format::Stl => Caps {
             normals: false,
             uv0: false,
             colors: false,
             groups: false,
+            uv_flipped: false,
         },
     }
 }
@@ -90,7 +100,13 @@ fn corner_list(m: &Mesh, c: Caps, by_name: bool) -> Vec<Corner> {
                     .then(|| m.attributes.normals.as_ref().map(|n| bits3(n[i])))
                     .flatten(),
                 c.uv0
-                    .then(|| m.attributes.uv0.as_ref().map(|u| u[i].map(f32::to_bits)))
+                    .then(|| {
+                        m.attributes.uv0.as_ref().map(|u| {
+                            let [s, t] = u[i];
+                            let t = if c.uv_flipped { 1.0 - (1.0 - t) } else { t };
+                            [s.to_bits(), t.to_bits()]
+                        })
+                    })
                     .flatten(),
                 c.colors
                     .then(|| m.attributes.colors.as_ref().map(|u| u[i].map(f32::to_bits)))

@@ -101,6 +101,8 @@ pub struct Repair {
 /// Fixed inputs of the geometric checks of one proposed collapse.
 struct Geometry {
     cos_limit: f64,
+    /// Squared cross-product length (length⁴) at or below which a triangle is
+    /// degenerate.
     area_eps: f64,
     p: [f64; 3],
 }
@@ -289,7 +291,11 @@ impl Surface {
             ];
             (diag, center)
         });
-        let eps = f64::from(f32::EPSILON) * diag;
+        // Twice a triangle's area (the length of its cross product, length²) at or
+        // below which it counts as degenerate: `f32` precision relative to the
+        // bounding box's size, `ε·diag²`, so the same shape at any scale is judged
+        // the same (compared squared, with the squared cross product).
+        let cross_eps = f64::from(f32::EPSILON) * diag * diag;
         let mut s = Self {
             pos,
             kind: vec![VertexKind::Complex; np],
@@ -310,7 +316,7 @@ impl Surface {
             live_tris: 0,
             center,
             diag,
-            area_eps: eps * eps,
+            area_eps: cross_eps * cross_eps,
             mark: vec![0; np],
             gen: 0,
             slot: vec![0; np],

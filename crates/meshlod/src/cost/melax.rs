@@ -319,6 +319,10 @@ impl CostModel for Melax {
         "melax"
     }
 
+    fn cost_length_power(&self) -> i32 {
+        1
+    }
+
     fn init(&mut self, surface: &Surface) {
         self.normals = (0..surface.triangle_slots() as u32)
             .map(|t| {

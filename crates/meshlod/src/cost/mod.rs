@@ -47,6 +47,16 @@ pub trait CostModel {
     /// A short name for reports (`"qem"`).
     fn name(&self) -> &'static str;
 
+    /// The power of length in the cost's units (QEM: 4, an area-weighted squared
+    /// distance; Melax: 1). The driver scales the costs by `2^(−p·k)`, with `2^k`
+    /// near the bounding-box diagonal, before queueing them as `f32`: exact (a power
+    /// of two), so the order is unchanged wherever `f32` holds the costs, and a mesh
+    /// in kilometres or in nanometres neither overflows nor underflows the keys.
+    /// Default 0 (no scaling).
+    fn cost_length_power(&self) -> i32 {
+        0
+    }
+
     /// Builds the per-point state from the initial surface.
     fn init(&mut self, surface: &Surface);
 

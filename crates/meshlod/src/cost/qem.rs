@@ -213,6 +213,10 @@ impl CostModel for Qem {
         "qem"
     }
 
+    fn cost_length_power(&self) -> i32 {
+        4
+    }
+
     #[inline(always)]
     fn init(&mut self, surface: &Surface) {
         let n = surface.point_count();

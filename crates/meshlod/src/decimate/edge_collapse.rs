@@ -87,6 +87,17 @@ const STALE_SLACK: usize = 4096;
 /// Collapses between progress callbacks.
 const PROGRESS_EVERY: usize = 4096;
 
+/// `2^(−power·k)` with `2^k` the power of two nearest `diagonal` (1 for an empty or
+/// non-finite diagonal): multiplying by it is exact in floating point.
+fn key_scale(power: i32, diagonal: f64) -> f64 {
+    if !(diagonal.is_finite() && diagonal > 0.0) || power == 0 {
+        return 1.0;
+    }
+    let k = diagonal.log2().round().clamp(-200.0, 200.0) as i32;
+    let e = (-power * k).clamp(-1000, 1000);
+    2f64.powi(e)
+}
+
 struct Driver<'a, C: CostModel + ?Sized> {
     surface: &'a mut Surface,
     cost: &'a mut C,
@@ -94,6 +105,8 @@ struct Driver<'a, C: CostModel + ?Sized> {
     limits: OperatorLimits,
     version: Vec<u32>,
     heap: Heap,
+    /// Factor from costs to queue keys ([`CostModel::cost_length_power`]).
+    key_scale: f64,
     partners: Vec<Vec<u32>>,
     forward: Vec<u32>,
     scratch: Vec<u32>,
@@ -135,7 +148,7 @@ impl<C: CostModel + ?Sized> Driver<'_, C> {
                 stamp: self.stamp(a, b, endpoint_only),
                 cost_bits: 0,
             }
-            .with_cost(c),
+            .with_cost(c * self.key_scale),
         )
     }
 
@@ -313,6 +326,13 @@ fn run_impl<C: CostModel + ?Sized>(
             }
         }
     }
+    let scale = key_scale(cost.cost_length_power(), surface.diagonal());
+    // With non-edge pairs a point has more live pairs than its triangles' edges, so
+    // the queue can stay above the sweep's bound below even when nothing in it is
+    // stale; then a sweep waits until the queue has doubled since the last one
+    // (amortised O(1) per entry instead of a sweep per collapse).
+    let non_edge_pairs = !options.extra_pairs.is_empty() && options.limits.allow_non_edge;
+    let mut swept_to = 0usize;
     let mut d = Driver {
         surface,
         cost,
@@ -322,6 +342,7 @@ fn run_impl<C: CostModel + ?Sized>(
         // Room for what the stale-entry sweep below allows (2 per live triangle),
         // so the overflow list never reallocates on the way.
         heap: Heap::with_capacity(2 * surface_triangles + STALE_SLACK + 1024),
+        key_scale: scale,
         partners,
         forward,
         scratch: Vec::new(),
@@ -512,7 +533,7 @@ fn run_impl<C: CostModel + ?Sized>(
         }
         // Lazy keys: the exact priority may be higher than the queued one.
         let exact = d.cost.confirm(d.surface, &c);
-        let requeued = Item { cost_bits: 0, ..e }.with_cost(exact);
+        let requeued = Item { cost_bits: 0, ..e }.with_cost(exact * d.key_scale);
         if exact > c.cost && requeued.cost_bits > e.cost_bits {
             d.heap.push(requeued);
             continue;
@@ -562,7 +583,13 @@ fn run_impl<C: CostModel + ?Sized>(
         }
         // Drop stale entries once the queue holds more than ~2 entries per live
         // triangle (there are ~1.5 live pairs per triangle): bounds its memory.
-        if d.heap.len() > 2 * d.surface.live_triangles() + STALE_SLACK {
+        let bound = 2 * d.surface.live_triangles() + STALE_SLACK;
+        let bound = if non_edge_pairs {
+            bound.max(2 * swept_to)
+        } else {
+            bound
+        };
+        if d.heap.len() > bound {
             // A slice, not the `Vec`: its pointer and length are then loaded once,
             // not again for every entry.
             let version = &d.version[..];
@@ -571,6 +598,7 @@ fn run_impl<C: CostModel + ?Sized>(
                 (version[a as usize].wrapping_add(version[b as usize]) << 1) | (e.stamp & 1)
                     == e.stamp
             });
+            swept_to = d.heap.len();
         }
     }
     observer.progress(d.surface.live_triangles());

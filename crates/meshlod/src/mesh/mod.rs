@@ -31,7 +31,9 @@ pub struct VertexAttributes {
     pub normals: Option<Vec<[f32; 3]>>,
     /// glTF tangents: xyz direction and w = ±1 handedness.
     pub tangents: Option<Vec<[f32; 4]>>,
-    /// First texture coordinate set (glTF `TEXCOORD_0`, OBJ `vt`, PLY `u v`).
+    /// First texture coordinate set (glTF `TEXCOORD_0`, OBJ `vt`, PLY `u v`), with
+    /// OBJ's convention: origin at the image's bottom left, `v` up (the glTF reader
+    /// and writer turn glTF's top-left `v` into this and back: `v ↦ 1 − v`).
     pub uv0: Option<Vec<[f32; 2]>>,
     /// Second texture coordinate set (glTF `TEXCOORD_1`).
     pub uv1: Option<Vec<[f32; 2]>>,

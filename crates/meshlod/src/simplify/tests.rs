@@ -747,3 +747,19 @@ fn endpoint_placement_keeps_input_positions() {
     check_invariants(&torus, &mid, &report);
     assert!(mid.positions.iter().any(|p| !torus.positions.contains(p)));
 }
+
+/// Clustering cannot stop at an error: `max_error` alone used to give it a target of
+/// 0 triangles and an empty mesh; now it is refused, and accepted beside a count.
+#[test]
+fn cluster_with_only_a_max_error_is_refused() {
+    let sphere = generate::icosphere(3);
+    let only = SimplifyOptions::default()
+        .with_method(Method::Cluster)
+        .with_max_error(Distance::Relative(0.05));
+    match simplify(&sphere, &only) {
+        Err(SimplifyError::Option { name, .. }) => assert_eq!(name, "max_error"),
+        other => panic!("expected a refusal, got {other:?}"),
+    }
+    let (out, _) = simplify(&sphere, &only.with_ratio(0.2)).expect("with a ratio");
+    assert!(!out.triangles.is_empty());
+}

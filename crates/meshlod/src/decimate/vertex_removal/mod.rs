@@ -1033,7 +1033,10 @@ impl VertexRemoval {
                 ..Pt::default()
             })
             .collect();
-        let eps = f64::from(f32::EPSILON) * surface.diagonal();
+        // Twice an area (a cross product's length, length²) at or below which a
+        // triangle or a hole is degenerate: `ε·diag²`, the same relative size at
+        // any scale (as the collapse operator's test).
+        let eps = f64::from(f32::EPSILON) * surface.diagonal() * surface.diagonal();
         let has_groups = group.is_some();
         let tri: Vec<Tri> = tri
             .iter()
@@ -1071,7 +1074,7 @@ impl VertexRemoval {
             fan_garbage: 0,
             cos_feature: options.feature_angle.clamp(0.0, 180.0).to_radians().cos(),
             options,
-            area_eps: eps * eps,
+            area_eps: eps,
             plan: Plan::default(),
             gen: 0,
             rejections: Rejections::default(),
@@ -1386,7 +1389,9 @@ impl VertexRemoval {
                 let [a, b, cc] = c.map(|k| plan.pos[k as usize]);
                 let tn = cross(sub(b, a), sub(cc, a));
                 let l2 = dot(tn, tn);
-                if l2 <= area_eps {
+                // `l2` is a squared cross product (length⁴); `area_eps` a cross
+                // product's length (length²), so it is compared squared.
+                if l2 <= area_eps * area_eps {
                     return Err(Refusal::Degenerate);
                 }
                 if dot(tn, n) <= 1e-6 * l2.sqrt() {

@@ -67,6 +67,19 @@ mod glb;
 mod json;
 mod read;
 mod refs;
+/// Texture coordinates between glTF's convention (origin at the image's top left,
+/// `v` down) and the mesh model's, which is OBJ's, PLY's and OFF's (origin at the
+/// bottom left, `v` up): `v ↦ 1 − v`, its own inverse. Read and written through it,
+/// a texture stays on the surface when a glTF becomes an OBJ or the reverse; a
+/// glTF read and written back gets its coordinates again to within `f32` rounding
+/// of `1 − v` (below 6·10⁻⁸ of the image).
+pub(crate) fn flip_v(mut uv: Vec<[f32; 2]>) -> Vec<[f32; 2]> {
+    for t in &mut uv {
+        t[1] = 1.0 - t[1];
+    }
+    uv
+}
+
 #[cfg(test)]
 mod tests;
 mod uri;

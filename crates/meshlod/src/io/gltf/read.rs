@@ -535,8 +535,14 @@ fn read_block(
         let len = match *bit {
             Streams::NORMAL => at.normals.insert(store.floats::<3>(a, &w)?).len(),
             Streams::TANGENT => at.tangents.insert(store.floats::<4>(a, &w)?).len(),
-            Streams::UV0 => at.uv0.insert(store.floats::<2>(a, &w)?).len(),
-            Streams::UV1 => at.uv1.insert(store.floats::<2>(a, &w)?).len(),
+            Streams::UV0 => at
+                .uv0
+                .insert(super::flip_v(store.floats::<2>(a, &w)?))
+                .len(),
+            Streams::UV1 => at
+                .uv1
+                .insert(super::flip_v(store.floats::<2>(a, &w)?))
+                .len(),
             Streams::COLOR => {
                 let rgb = store.accessors.get(a).is_some_and(|acc| acc.ty == "VEC3");
                 let c = if rgb {

@@ -559,9 +559,10 @@ fn strided_and_offset_accessors() {
         m.positions,
         vec![[0.0, 0.0, 3.0], [1.0, 2.0, 3.0], [2.0, 4.0, 3.0]]
     );
+    // The file's v = 0.25 (glTF: from the top) is 0.75 from the bottom.
     assert_eq!(
         m.attributes.uv0,
-        Some(vec![[0.0, 0.25], [0.5, 0.25], [1.0, 0.25]])
+        Some(vec![[0.0, 0.75], [0.5, 0.75], [1.0, 0.75]])
     );
     // Non-indexed: implicit 0..n.
     assert_eq!(m.triangles, vec![[0, 1, 2]]);
@@ -734,8 +735,9 @@ fn normalized_and_quantized_attributes() {
     assert_eq!(n[1], [0.0, -1.0, 0.0]); // -127 / 127
     assert_eq!(n[2], [-1.0, 0.0, 0.0]); // -128 clamps to -1
     let uvs = m.attributes.uv0.as_ref().unwrap();
-    assert_eq!(uvs[0], [0.0, 1.0]);
-    assert_eq!(uvs[1], [32768.0 / 65535.0, 0.0]);
+    // Normalised u16 (0, 65535) and (32768, 0), v turned to bottom-up.
+    assert_eq!(uvs[0], [0.0, 0.0]);
+    assert_eq!(uvs[1], [32768.0 / 65535.0, 1.0]);
     let c = m.attributes.colors.as_ref().unwrap();
     assert_eq!(c[0], [1.0, 0.0, 0.2, 1.0]);
     assert_eq!(m.attributes.joints.as_ref().unwrap()[2], [9, 10, 11, 12]);
@@ -1052,9 +1054,10 @@ fn differing_attribute_sets_are_written_back_per_primitive() {
     assert!(doc["meshes"][0]["primitives"][1]["attributes"]
         .get("TEXCOORD_0")
         .is_none());
+    // The file's (1, 0), v turned to bottom-up.
     assert_eq!(
         back.parts[0].mesh.attributes.uv0.as_ref().unwrap()[1],
-        [1.0, 0.0]
+        [1.0, 1.0]
     );
 }
 
@@ -1262,9 +1265,10 @@ fn textured_round_trip_embeds_the_image_in_glb() {
             back.parts[0].mesh.positions.len(),
             scene.parts[0].mesh.compact_clone().positions.len()
         );
+        // The file's (1, 1), v turned to bottom-up.
         assert_eq!(
             back.parts[0].mesh.attributes.uv0.as_ref().unwrap()[2],
-            [1.0, 1.0]
+            [1.0, 0.0]
         );
         // The embedded .gltf keeps the data-URI image.
         let emb = read_ok(&write_embedded(&back).unwrap());
@@ -1589,6 +1593,13 @@ mod props {
         })
     }
 
+    /// A texture coordinate pair on a 2⁻¹² grid in `[-2, 2]`: `1 − v` is exact
+    /// there, so the reader's and writer's `v ↦ 1 − v` (see `flip_v`) gives the
+    /// same bits back.
+    fn uv() -> impl Strategy<Value = [f32; 2]> {
+        prop::array::uniform2(-8192i32..=8192).prop_map(|c| c.map(|k| k as f32 / 4096.0))
+    }
+
     fn mesh() -> impl Strategy<Value = Mesh> {
         (3usize..30).prop_flat_map(|n| {
             (
@@ -1596,10 +1607,7 @@ mod props {
                 prop::collection::vec(prop::array::uniform3(0..n as u32), 1..40),
                 prop::option::of(prop::collection::vec(unit3(), n)),
                 prop::option::of(prop::collection::vec((unit3(), prop::bool::ANY), n)),
-                prop::option::of(prop::collection::vec(
-                    prop::array::uniform2(-2.0f32..2.0),
-                    n,
-                )),
+                prop::option::of(prop::collection::vec(uv(), n)),
                 prop::option::of(prop::collection::vec(prop::array::uniform4(0.0f32..1.0), n)),
                 prop::option::of(prop::collection::vec(
                     (
@@ -1609,7 +1617,7 @@ mod props {
                     n,
                 )),
                 prop::option::of(prop::collection::vec(0u32..4, 40)),
-                prop::option::of(prop::collection::vec(prop::array::uniform2(0.0f32..1.0), n)),
+                prop::option::of(prop::collection::vec(uv(), n)),
             )
                 .prop_map(|(p, t, nrm, tan, uv0, col, skin, groups, uv1)| {
                     let mut m = Mesh::from_triangles(p, t);

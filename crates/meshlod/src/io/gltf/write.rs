@@ -60,6 +60,7 @@ pub(super) fn write_file(path: &Path, scene: &Scene, glb: bool) -> Result<(), Wr
         .file_stem()
         .map_or_else(|| "scene".into(), |s| s.to_string_lossy().into_owned());
     let bin_name = format!("{stem}.bin");
+    refuse_overwriting_source(scene, &dir.join(&bin_name))?;
     let built = build(
         scene,
         &Target::Files {
@@ -82,6 +83,42 @@ pub(super) fn write_file(path: &Path, scene: &Scene, glb: bool) -> Result<(), Wr
             std::fs::create_dir_all(parent)?;
         }
         std::fs::copy(from, to)?;
+    }
+    Ok(())
+}
+
+/// An error when `bin` is an external file (buffer or image) of the glTF the scene
+/// was read from: writing `x.gltf` beside an input whose buffer is `x.bin` would
+/// destroy the input (its buffer replaced by the output's).
+fn refuse_overwriting_source(scene: &Scene, bin: &Path) -> Result<(), FormatError> {
+    let Some(src) = &scene.gltf else {
+        return Ok(());
+    };
+    let (Some(base), Ok(target)) = (&src.base_dir, bin.canonicalize()) else {
+        return Ok(()); // nothing on disk there yet, or no files to clash with
+    };
+    for kind in ["buffers", "images"] {
+        let Some(list) = src.document[kind].as_array() else {
+            continue;
+        };
+        for (i, item) in list.iter().enumerate() {
+            let Some(u) = item["uri"].as_str() else {
+                continue;
+            };
+            if let Ok(uri::Uri::Relative(rel)) = uri::parse(u) {
+                if base.join(&rel).canonicalize().is_ok_and(|p| p == target) {
+                    return Err(FormatError::new(
+                        Location::File,
+                        format!(
+                            "writing the binary data to {} would overwrite {} {i} of the glTF \
+                             this scene was read from; choose another output name",
+                            bin.display(),
+                            &kind[..kind.len() - 1]
+                        ),
+                    ));
+                }
+            }
+        }
     }
     Ok(())
 }
@@ -339,10 +376,12 @@ fn geometry(pool: &mut Pool, sub: &Mesh, color_rgb: bool, joints_u8: bool) -> (O
         attrs.insert("TANGENT".into(), num(pool.floats(&t, false)));
     }
     if let Some(uv) = &a.uv0 {
-        attrs.insert("TEXCOORD_0".into(), num(pool.floats(uv, false)));
+        let uv = super::flip_v(uv.clone());
+        attrs.insert("TEXCOORD_0".into(), num(pool.floats(&uv, false)));
     }
     if let Some(uv) = &a.uv1 {
-        attrs.insert("TEXCOORD_1".into(), num(pool.floats(uv, false)));
+        let uv = super::flip_v(uv.clone());
+        attrs.insert("TEXCOORD_1".into(), num(pool.floats(&uv, false)));
     }
     if let Some(c) = &a.colors {
         let acc = if color_rgb {

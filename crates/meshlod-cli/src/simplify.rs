@@ -30,7 +30,7 @@ use meshlod::simplify::{
 };
 use serde::Serialize;
 use std::io::IsTerminal;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 /// Arguments of `meshlod simplify`.
@@ -525,6 +525,7 @@ pub fn run(args: &SimplifyArgs) -> Result<()> {
     if let Some(b) = &progress.bar {
         b.finish_and_clear();
     }
+    warn_lost_attributes(&args.output, out_format, &out_scene);
     let t1 = Instant::now();
     write_scene(
         &args.output,
@@ -576,6 +577,64 @@ fn run_stream(args: &SimplifyArgs, opts: &SimplifyOptions) -> Result<()> {
         write_seconds,
     };
     report(args, opts, agg, measure, times, memory)
+}
+
+/// What `format` cannot hold of the scene's meshes, in words (empty for glTF,
+/// which holds every attribute meshlod models).
+fn lost_attributes(format: Format, scene: &Scene) -> Vec<&'static str> {
+    let has = |f: &dyn Fn(&meshlod::Mesh) -> bool| scene.parts.iter().any(|p| f(&p.mesh));
+    let (normals, uv0, colors, groups) = match format {
+        Format::Gltf | Format::Glb => return Vec::new(),
+        Format::Stl => (false, false, false, false),
+        Format::Obj => (true, true, true, true),
+        Format::Ply | Format::Off | Format::HoppeM => (true, true, true, false),
+    };
+    let mut lost = Vec::new();
+    let mut check = |kept: bool, present: bool, what: &'static str| {
+        if !kept && present {
+            lost.push(what);
+        }
+    };
+    check(normals, has(&|m| m.attributes.normals.is_some()), "normals");
+    check(
+        uv0,
+        has(&|m| m.attributes.uv0.is_some()),
+        "texture coordinates",
+    );
+    check(colors, has(&|m| m.attributes.colors.is_some()), "colours");
+    check(
+        false,
+        has(&|m| m.attributes.uv1.is_some()),
+        "second texture coordinates",
+    );
+    check(false, has(&|m| m.attributes.tangents.is_some()), "tangents");
+    check(
+        false,
+        has(&|m| m.attributes.joints.is_some() || m.attributes.weights.is_some()),
+        "skin weights",
+    );
+    check(
+        groups,
+        has(&|m| {
+            m.group_names.len() > 1 || m.groups.as_ref().is_some_and(|g| g.iter().any(|&x| x > 0))
+        }),
+        "material groups",
+    );
+    lost
+}
+
+/// Warns on stderr when the output format drops attributes the result has.
+fn warn_lost_attributes(path: &Path, format: Option<Format>, scene: &Scene) {
+    let Some(format) = format else { return };
+    let lost = lost_attributes(format, scene);
+    if !lost.is_empty() {
+        eprintln!(
+            "meshlod: warning: {}: {} cannot hold the result's {}; written without them (glTF holds them all)",
+            path.display(),
+            format.name(),
+            lost.join(", ")
+        );
+    }
 }
 
 /// Reading and writing times (seconds).

@@ -586,3 +586,29 @@ fn negative_values_get_the_options_message() {
         );
     }
 }
+
+/// Writing a format that cannot hold the result's attributes says what is dropped
+/// (spot has texture coordinates: STL drops them, OBJ keeps them).
+#[test]
+fn dropped_attributes_are_named() {
+    let dir = tempfile::tempdir().unwrap();
+    let spot = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../tests/data/spot.obj");
+    let out = simplify(
+        &spot,
+        dir.path().join("spot.stl"),
+        &["--ratio", "0.5", "--json"],
+    );
+    json(&out);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        stderr.contains("STL cannot hold the result's texture coordinates"),
+        "{stderr}"
+    );
+    let out = simplify(
+        &spot,
+        dir.path().join("spot.obj"),
+        &["--ratio", "0.5", "--json"],
+    );
+    json(&out);
+    assert!(!String::from_utf8_lossy(&out.stderr).contains("cannot hold"));
+}

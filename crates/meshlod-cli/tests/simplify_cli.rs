@@ -540,7 +540,7 @@ fn heat_map_follows_the_extension() {
     let input = torus_file(dir.path());
     let coarse = dir.path().join("coarse.ply");
     json(&simplify(&input, &coarse, &["--ratio", "0.2", "--json"]));
-    for ext in ["ply", "obj"] {
+    let heat_map = |ext: &str| {
         let hm = dir.path().join(format!("hm.{ext}"));
         let out = meshlod(&[
             "measure",
@@ -549,6 +549,10 @@ fn heat_map_follows_the_extension() {
             "--heatmap",
             hm.to_str().unwrap(),
         ]);
+        (hm, out)
+    };
+    for ext in ["ply", "obj"] {
+        let (hm, out) = heat_map(ext);
         assert!(
             out.status.success(),
             "{}",
@@ -557,14 +561,7 @@ fn heat_map_follows_the_extension() {
         let m = read_scene(&hm).expect("heat map reads").flatten();
         assert!(m.attributes.colors.is_some(), "{ext}: no colours");
     }
-    let hm = dir.path().join("hm.stl");
-    let out = meshlod(&[
-        "measure",
-        input.to_str().unwrap(),
-        coarse.to_str().unwrap(),
-        "--heatmap",
-        hm.to_str().unwrap(),
-    ]);
+    let (_, out) = heat_map("stl");
     assert!(!out.status.success());
     assert!(String::from_utf8_lossy(&out.stderr).contains("STL holds no vertex colours"));
 }

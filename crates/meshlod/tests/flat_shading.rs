@@ -47,6 +47,15 @@ fn flat_shaded(mesh: &Mesh) -> Mesh {
     }
 }
 
+/// A test mesh from `tests/data`, and the same flat shaded.
+fn smooth_and_flat(file: &str) -> (Mesh, Mesh) {
+    let smooth = read_scene(common::data_dir().join(file))
+        .expect("test mesh reads")
+        .flatten();
+    let flat = flat_shaded(&smooth);
+    (smooth, flat)
+}
+
 /// Every corner's normal is its triangle's geometric unit normal.
 fn assert_facet_normals(name: &str, m: &Mesh) {
     let normals = m.attributes.normals.as_ref().expect("normals written");
@@ -65,10 +74,7 @@ fn assert_facet_normals(name: &str, m: &Mesh) {
 #[test]
 fn flat_shaded_meshes_simplify_like_smooth_ones() {
     for file in ["stanford-bunny.obj", "fandisk.obj", "spot.obj"] {
-        let smooth = read_scene(common::data_dir().join(file))
-            .expect("test mesh reads")
-            .flatten();
-        let flat = flat_shaded(&smooth);
+        let (smooth, flat) = smooth_and_flat(file);
         let input_topology = MeshStats::of(&smooth).topology;
         for (method, ratio) in [
             (Method::Qem, 0.1),
@@ -123,10 +129,7 @@ fn flat_shaded_meshes_simplify_like_smooth_ones() {
 fn without_the_reshading_a_flat_mesh_cannot_move() {
     // The bunny has no two coplanar neighbours, so every point is a seam junction
     // (fandisk's planar patches would share normals and move).
-    let smooth = read_scene(common::data_dir().join("stanford-bunny.obj"))
-        .expect("test mesh reads")
-        .flatten();
-    let flat = flat_shaded(&smooth);
+    let (_, flat) = smooth_and_flat("stanford-bunny.obj");
     let options = SimplifyOptions::default()
         .with_ratio(0.1)
         .with_reshade_flat(false);
@@ -140,10 +143,7 @@ fn without_the_reshading_a_flat_mesh_cannot_move() {
 fn locked_vertices_stay_locked_through_the_merge() {
     // Lock every corner of the first 50 input triangles: their points must come
     // out where they were.
-    let smooth = read_scene(common::data_dir().join("fandisk.obj"))
-        .expect("test mesh reads")
-        .flatten();
-    let flat = flat_shaded(&smooth);
+    let (_, flat) = smooth_and_flat("fandisk.obj");
     let mut mask = vec![false; flat.positions.len()];
     mask[..150].iter_mut().for_each(|m| *m = true);
     let options = SimplifyOptions::default()

@@ -818,24 +818,32 @@ impl Aggregate {
 }
 
 /// The largest factor by which `m` (column-major) stretches a length: the spectral
-/// norm of its linear part, by power iteration on `MᵀM` (1 for a zero matrix).
+/// norm of its linear part, by power iteration on `MᵀM` from each axis (one of
+/// them is never orthogonal to the largest eigenvector; 1 for a zero or
+/// non-finite matrix).
 fn stretch(m: &meshlod::io::Matrix4) -> f64 {
     let a: [[f64; 3]; 3] = std::array::from_fn(|c| std::array::from_fn(|r| f64::from(m[c][r])));
     // (MᵀM)_ij = column i · column j.
     let g: [[f64; 3]; 3] =
         std::array::from_fn(|i| std::array::from_fn(|j| (0..3).map(|k| a[i][k] * a[j][k]).sum()));
-    let mut v = [1.0, 0.7, 0.4];
-    let mut lambda = 0.0;
-    for _ in 0..64 {
-        let w: [f64; 3] = std::array::from_fn(|i| (0..3).map(|j| g[i][j] * v[j]).sum());
-        let n = w.iter().map(|x| x * x).sum::<f64>().sqrt();
-        if !(n.is_finite() && n > 0.0) {
-            return 1.0;
+    let mut largest = 0.0f64;
+    for axis in 0..3 {
+        let mut v: [f64; 3] = std::array::from_fn(|k| if k == axis { 1.0 } else { 0.0 });
+        for _ in 0..64 {
+            let w: [f64; 3] = std::array::from_fn(|i| (0..3).map(|j| g[i][j] * v[j]).sum());
+            let n = w.iter().map(|x| x * x).sum::<f64>().sqrt();
+            if !(n.is_finite() && n > 0.0) {
+                break;
+            }
+            largest = largest.max(n);
+            v = w.map(|x| x / n);
         }
-        lambda = n;
-        v = w.map(|x| x / n);
     }
-    lambda.sqrt()
+    if largest > 0.0 {
+        largest.sqrt()
+    } else {
+        1.0
+    }
 }
 
 /// Simplifies every part of a glTF scene with the same ratio. Distances are the
@@ -1019,5 +1027,24 @@ fn print_text(r: &CliReport) {
             ),
             None => out!("  memory       peak {:.1} MiB resident", mib(m.peak_rss_bytes)),
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::stretch;
+    use meshlod::io::IDENTITY;
+
+    #[test]
+    fn stretch_is_the_largest_scale_of_a_transform() {
+        assert!((stretch(&IDENTITY) - 1.0).abs() < 1e-12);
+        // Scale (2, 5, 3), then a quarter turn about z, then a translation.
+        let mut m = IDENTITY;
+        m[0] = [0.0, 2.0, 0.0, 0.0];
+        m[1] = [-5.0, 0.0, 0.0, 0.0];
+        m[2] = [0.0, 0.0, 3.0, 0.0];
+        m[3] = [7.0, 8.0, 9.0, 1.0];
+        assert!((stretch(&m) - 5.0).abs() < 1e-9, "{}", stretch(&m));
+        assert!((stretch(&[[0.0; 4]; 4]) - 1.0).abs() < 1e-12);
     }
 }

@@ -265,3 +265,27 @@ fn shipped_meshes_survive_every_format() {
         }
     }
 }
+
+/// A UTF-8 byte-order mark before a text file (as some Windows editors save it) is
+/// skipped by every text format's reader: the same mesh comes back.
+#[test]
+fn a_byte_order_mark_is_skipped() {
+    let mesh = meshlod::mesh::generate::icosphere(1);
+    for format in [
+        Format::Obj,
+        Format::Ply,
+        Format::Stl,
+        Format::Off,
+        Format::HoppeM,
+    ] {
+        let opts = WriteOptions::default().with_ascii(true);
+        let text =
+            write_scene_to_bytes(&Scene::from_mesh(mesh.clone()), format, &opts).expect("writes");
+        let mut with_bom = b"\xEF\xBB\xBF".to_vec();
+        with_bom.extend_from_slice(&text);
+        let plain = read_scene_from_bytes(&text, format, None).expect("reads");
+        let bom = read_scene_from_bytes(&with_bom, format, None)
+            .unwrap_or_else(|e| panic!("{format:?} with a BOM: {e}"));
+        assert_eq!(bom.flatten(), plain.flatten(), "{format:?}");
+    }
+}

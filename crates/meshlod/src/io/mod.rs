@@ -335,6 +335,17 @@ pub fn read_scene_from_bytes(
     if data.is_empty() {
         return Err(FormatError::new(Location::File, "file is empty (0 bytes)").into());
     }
+    // A UTF-8 byte-order mark before a text header (some Windows editors write one;
+    // glTF skips it itself; an OBJ took it for part of its first keyword and dropped
+    // that line). An STL only when text ("solid") follows, so
+    // a binary header that happens to start with those bytes stays whole. Byte
+    // offsets in errors then count from after it.
+    const BOM: &[u8] = b"\xEF\xBB\xBF";
+    let data = match (format, data.strip_prefix(BOM)) {
+        (Format::Obj | Format::Off | Format::HoppeM | Format::Ply, Some(rest)) => rest,
+        (Format::Stl, Some(rest)) if rest.starts_with(b"solid") => rest,
+        _ => data,
+    };
     let scene = match format {
         Format::Obj => obj::read(data)?,
         Format::Ply => Scene::from_mesh(ply::read(data)?),

@@ -140,6 +140,20 @@ fn parse_json(text: &[u8], glb_offset: Option<usize>) -> Result<Value, FormatErr
         return Err(FormatError::new(location, "empty glTF JSON"));
     }
     serde_json::from_slice(text).map_err(|e| {
+        if glb_offset.is_none() && text.iter().find(|b| !b.is_ascii_whitespace()) != Some(&b'{') {
+            // Neither container: say so instead of a JSON syntax error at line 1.
+            let head: String = text
+                .iter()
+                .take(4)
+                .map(|&b| if b.is_ascii_graphic() { b as char } else { '.' })
+                .collect();
+            return FormatError::new(
+                Location::Byte(0),
+                format!(
+                    "neither a GLB (it starts with \"{head}\", not the \"glTF\" magic) nor glTF JSON (no '{{' first)"
+                ),
+            );
+        }
         let full = e.to_string();
         let message = match full.rfind(" at line ") {
             Some(cut) => format!("invalid JSON: {} (column {})", &full[..cut], e.column()),

@@ -95,6 +95,19 @@ fn relative(d: &Distances, scale: f64) -> Relative {
 /// # Errors
 /// A file cannot be read, or the heat map cannot be written.
 pub fn run(args: &MeasureArgs) -> Result<()> {
+    // Screen-space error needs a picture to project onto.
+    if !(args.fov > 0.0 && args.fov < 180.0) {
+        bail!(
+            "--fov {} must be an angle strictly between 0 and 180 degrees",
+            args.fov
+        );
+    }
+    if let Some(h) = args.screen_height.filter(|h| !(*h > 0.0 && h.is_finite())) {
+        bail!("--screen-height {h} must be a positive number of pixels");
+    }
+    if let Some(d) = args.distance.filter(|d| !(*d > 0.0 && d.is_finite())) {
+        bail!("--distance {d} must be a positive distance");
+    }
     let a = read_mesh(&args.a)?;
     let b = read_mesh(&args.b)?;
     crate::warn_precision(&args.a, &a);

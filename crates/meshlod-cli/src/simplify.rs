@@ -472,7 +472,49 @@ fn options(args: &SimplifyArgs) -> Result<SimplifyOptions> {
     } else if args.fit {
         o = o.with_fit_iterations(meshlod::simplify::DEFAULT_FIT_ITERATIONS);
     }
+    warn_ignored(args, fitting);
     Ok(o.with_lock_boundary(args.lock_boundary))
+}
+
+/// Warns on stderr about flags that the chosen method or placement does not use
+/// (the run goes on without them).
+fn warn_ignored(args: &SimplifyArgs, fitting: bool) {
+    let method = match args.method {
+        MethodArg::Qem => "qem",
+        MethodArg::Cluster => "cluster",
+        MethodArg::VertexRemoval => "vertex-removal",
+        MethodArg::Melax => "melax",
+    };
+    let mut ignored: Vec<&str> = Vec::new();
+    let qem_moves = args.method == MethodArg::Qem && args.placement != Some(PlacementArg::Endpoint);
+    if !qem_moves {
+        if args.swap {
+            ignored.push("--swap");
+        }
+        if fitting {
+            ignored.push("--fit");
+        }
+    }
+    if args.keep_corners && args.method != MethodArg::VertexRemoval {
+        ignored.push("--keep-corners");
+    }
+    if args.lock_boundary && args.method == MethodArg::Cluster {
+        ignored.push("--lock-boundary");
+    }
+    if args.placement.is_some() && args.method != MethodArg::Qem {
+        ignored.push("--placement");
+    }
+    if !ignored.is_empty() {
+        eprintln!(
+            "meshlod: warning: {} not used by --method {method}{}; ignored",
+            ignored.join(", "),
+            if args.method == MethodArg::Qem {
+                " with --placement endpoint"
+            } else {
+                ""
+            }
+        );
+    }
 }
 
 /// Runs `meshlod simplify`.

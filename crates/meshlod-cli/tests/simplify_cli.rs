@@ -609,3 +609,45 @@ fn dropped_attributes_are_named() {
     json(&out);
     assert!(!String::from_utf8_lossy(&out.stderr).contains("cannot hold"));
 }
+
+/// A flag the chosen method does not use is named in a warning (the run goes on).
+#[test]
+fn unused_flags_are_named() {
+    let dir = tempfile::tempdir().unwrap();
+    let input = torus_file(dir.path());
+    let output = dir.path().join("out.ply");
+    let out = simplify(
+        &input,
+        &output,
+        &["--ratio", "0.5", "--json", "--method", "cluster", "--swap"],
+    );
+    json(&out);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        stderr.contains("--swap not used by --method cluster"),
+        "{stderr}"
+    );
+    let out = simplify(&input, &output, &["--ratio", "0.5", "--json", "--swap"]);
+    json(&out);
+    assert!(!String::from_utf8_lossy(&out.stderr).contains("not used"));
+}
+
+/// Screen-space options that cannot describe a view are refused (they printed
+/// "NaN px").
+#[test]
+fn measure_refuses_impossible_views() {
+    let dir = tempfile::tempdir().unwrap();
+    let input = torus_file(dir.path());
+    let p = input.to_str().unwrap();
+    for bad in [
+        &["--fov", "0", "--screen-height", "1080"][..],
+        &["--screen-height", "0"][..],
+        &["--screen-height", "1080", "--distance", "-2"][..],
+    ] {
+        let mut args = vec!["measure", p, p];
+        args.extend_from_slice(bad);
+        let out = meshlod(&args);
+        assert!(!out.status.success(), "{bad:?} accepted");
+        assert!(String::from_utf8_lossy(&out.stderr).contains("must be"));
+    }
+}

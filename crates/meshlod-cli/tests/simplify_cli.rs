@@ -34,6 +34,12 @@ fn simplify(input: impl AsRef<Path>, output: impl AsRef<Path>, extra: &[&str]) -
     meshlod(&args)
 }
 
+/// The stderr of a run that succeeded with a JSON report.
+fn stderr_of_ok(out: &Output) -> String {
+    json(out);
+    String::from_utf8_lossy(&out.stderr).into_owned()
+}
+
 fn json(out: &Output) -> serde_json::Value {
     assert!(
         out.status.success(),
@@ -590,24 +596,21 @@ fn negative_values_get_the_options_message() {
 fn dropped_attributes_are_named() {
     let dir = tempfile::tempdir().unwrap();
     let spot = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../tests/data/spot.obj");
-    let out = simplify(
+    let stderr = stderr_of_ok(&simplify(
         &spot,
         dir.path().join("spot.stl"),
         &["--ratio", "0.5", "--json"],
-    );
-    json(&out);
-    let stderr = String::from_utf8_lossy(&out.stderr);
+    ));
     assert!(
         stderr.contains("STL cannot hold the result's texture coordinates"),
         "{stderr}"
     );
-    let out = simplify(
+    let stderr = stderr_of_ok(&simplify(
         &spot,
         dir.path().join("spot.obj"),
         &["--ratio", "0.5", "--json"],
-    );
-    json(&out);
-    assert!(!String::from_utf8_lossy(&out.stderr).contains("cannot hold"));
+    ));
+    assert!(!stderr.contains("cannot hold"));
 }
 
 /// A flag the chosen method does not use is named in a warning (the run goes on).
@@ -616,20 +619,21 @@ fn unused_flags_are_named() {
     let dir = tempfile::tempdir().unwrap();
     let input = torus_file(dir.path());
     let output = dir.path().join("out.ply");
-    let out = simplify(
+    let stderr = stderr_of_ok(&simplify(
         &input,
         &output,
         &["--ratio", "0.5", "--json", "--method", "cluster", "--swap"],
-    );
-    json(&out);
-    let stderr = String::from_utf8_lossy(&out.stderr);
+    ));
     assert!(
         stderr.contains("--swap not used by --method cluster"),
         "{stderr}"
     );
-    let out = simplify(&input, &output, &["--ratio", "0.5", "--json", "--swap"]);
-    json(&out);
-    assert!(!String::from_utf8_lossy(&out.stderr).contains("not used"));
+    let stderr = stderr_of_ok(&simplify(
+        &input,
+        &output,
+        &["--ratio", "0.5", "--json", "--swap"],
+    ));
+    assert!(!stderr.contains("not used"));
 }
 
 /// Screen-space options that cannot describe a view are refused (they printed

@@ -192,7 +192,7 @@ impl Surface {
         let has_attrs = !mesh.attributes.is_empty();
         // Without attributes every vertex's wedge is its point's representative, which
         // only the (then absent) per-corner wedges would record.
-        let canonical = has_attrs.then(|| canonical_wedges(mesh, &weld));
+        let canonical = has_attrs.then(|| canonical_wedges(mesh, &weld, true));
         let point_of = weld.point_of;
         let representative = weld.representative;
         let pos: Vec<[f32; 3]> = representative
@@ -1767,8 +1767,9 @@ fn sorted3(t: [u32; 3]) -> [u32; 3] {
 }
 
 /// For every vertex, the first vertex with the same point and bitwise-equal
-/// attributes.
-pub(crate) fn canonical_wedges(mesh: &Mesh, weld: &Weld) -> Vec<u32> {
+/// attributes (the normals compared only when `normals` is true: the flat-shading
+/// merge sets them aside).
+pub(crate) fn canonical_wedges(mesh: &Mesh, weld: &Weld, normals: bool) -> Vec<u32> {
     let np = weld.point_count();
     let n = mesh.positions.len();
     let mut count = vec![0u32; np + 1];
@@ -1793,7 +1794,7 @@ pub(crate) fn canonical_wedges(mesh: &Mesh, weld: &Weld) -> Vec<u32> {
                     .all(|(a, b)| a.bits() == b.bits())
             })
         }
-        eq(&a.normals, x, y)
+        (!normals || eq(&a.normals, x, y))
             && eq(&a.tangents, x, y)
             && eq(&a.uv0, x, y)
             && eq(&a.uv1, x, y)

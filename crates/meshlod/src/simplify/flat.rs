@@ -26,7 +26,7 @@
 //! `SimplifyOptions::reshade_flat` switches the detection off.
 
 use crate::collapse::canonical_wedges;
-use crate::mesh::{Mesh, Weld};
+use crate::mesh::{Mesh, VertexAttributes, Weld};
 use std::collections::HashMap;
 
 /// Largest per-component difference between two corners' unit normals that still
@@ -105,16 +105,8 @@ impl FlatShading {
             return None;
         }
         let sign = if along > 0 { 1.0 } else { -1.0 };
-        let mut bare = Mesh {
-            positions: mesh.positions.clone(),
-            triangles: Vec::new(),
-            attributes: mesh.attributes.clone(),
-            groups: None,
-            group_names: Vec::new(),
-        };
-        bare.attributes.normals = None;
-        let weld = Weld::exact(&bare.positions);
-        let canonical = canonical_wedges(&bare, &weld);
+        let weld = Weld::exact(&mesh.positions);
+        let canonical = canonical_wedges(mesh, &weld, false);
         let mut merged_of = vec![u32::MAX; canonical.len()];
         let mut source = Vec::new();
         for (v, &c) in canonical.iter().enumerate() {
@@ -136,7 +128,10 @@ impl FlatShading {
                 .iter()
                 .map(|t| t.map(|v| merged_of[v as usize]))
                 .collect(),
-            attributes: bare.attributes.gather(&source),
+            attributes: VertexAttributes {
+                normals: None,
+                ..mesh.attributes.gather(&source)
+            },
             groups: mesh.groups.clone(),
             group_names: mesh.group_names.clone(),
         };

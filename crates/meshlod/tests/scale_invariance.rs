@@ -51,3 +51,56 @@ fn power_of_two_scales_give_the_same_output() {
         }
     }
 }
+
+/// A mesh of many small triangles in a large box: a 40 × 40 grid of cells 0.025
+/// wide beside a lone triangle 1,400 units away.
+///
+/// ```text
+///   grid [0,1]²                                     far triangle at (1000, 1000)
+///   ┌┬┬┬┐
+///   ├┼┼┼┤  . . . . . . . . . . . . . . . . . . . . . .  ◺
+///   └┴┴┴┘
+/// ```
+///
+/// The box's diagonal is about 1,414, so `f32` coordinates are spaced about
+/// `ε·diag ≈ 1.7·10⁻⁴` apart and every grid triangle is far taller than that, but
+/// its area (6·10⁻⁴) is below `ε·diag² ≈ 0.24`: when the degenerate test bounded
+/// the area, no collapse or removal in the grid was legal (as on a 16.7M-triangle
+/// terrain, whose cells are small beside its box). Judged by height, the grid
+/// simplifies as it would alone.
+#[test]
+fn small_triangles_in_a_large_box_simplify() {
+    let mut mesh =
+        meshlod::mesh::generate::grid(40, 40, |x, y| 0.05 * (6.0 * x).sin() * (5.0 * y).cos());
+    let base = mesh.positions.len() as u32;
+    mesh.positions.extend([
+        [1000.0, 1000.0, 0.0],
+        [1001.0, 1000.0, 0.0],
+        [1000.0, 1001.0, 0.0],
+    ]);
+    mesh.triangles.push([base, base + 1, base + 2]);
+    let target = 320;
+    for method in [Method::Qem, Method::Melax, Method::VertexRemoval] {
+        let options = SimplifyOptions::default()
+            .with_method(method)
+            .with_target_triangles(target);
+        let (out, report) = simplify(&mesh, &options).expect("simplifies");
+        let name = method.name();
+        assert_eq!(
+            report.stop_reason,
+            StopReason::TargetReached,
+            "{name}: {report:?}"
+        );
+        assert!(
+            out.triangles.len() <= target,
+            "{name}: {} triangles for a target of {target}",
+            out.triangles.len()
+        );
+        // The bumps are 0.05 high: a tenth of the cells keeps well within that.
+        assert!(
+            report.error_absolute < 0.02,
+            "{name}: error {} for bumps 0.05 high",
+            report.error_absolute
+        );
+    }
+}

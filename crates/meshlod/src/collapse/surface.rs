@@ -101,9 +101,9 @@ pub struct Repair {
 /// Fixed inputs of the geometric checks of one proposed collapse.
 struct Geometry {
     cos_limit: f64,
-    /// Squared cross-product length (length⁴) at or below which a triangle is
-    /// degenerate.
-    area_eps: f64,
+    /// Squared height (length²) at or below which a triangle is degenerate: its
+    /// smallest height, over its longest edge, is compared (see `Surface::height_eps2`).
+    height_eps2: f64,
     p: [f64; 3],
 }
 
@@ -150,7 +150,9 @@ pub struct Surface {
     live_tris: usize,
     center: [f64; 3],
     diag: f64,
-    area_eps: f64,
+    /// `(ε_f32·diag)²`: a triangle whose smallest height is at or below `ε_f32·diag`
+    /// (the spacing of `f32` coordinates over a box of that size) is degenerate.
+    height_eps2: f64,
     mark: Vec<u32>,
     gen: u32,
     slot: Vec<u32>,
@@ -291,11 +293,14 @@ impl Surface {
             ];
             (diag, center)
         });
-        // Twice a triangle's area (the length of its cross product, length²) at or
-        // below which it counts as degenerate: `f32` precision relative to the
-        // bounding box's size, `ε·diag²`, so the same shape at any scale is judged
-        // the same (compared squared, with the squared cross product).
-        let cross_eps = f64::from(f32::EPSILON) * diag * diag;
+        // A triangle is degenerate when its smallest height is at or below the
+        // spacing of `f32` coordinates over the bounding box, `ε·diag`: its normal is
+        // then no longer set by its stored corners. Relative to the box, so the same
+        // shape at any scale is judged the same; relative to the triangle's own
+        // longest edge, so a mesh of many small triangles (a 16.7M-triangle terrain,
+        // whose cells are far below `ε·diag²` in area) is not judged degenerate
+        // everywhere, as an area bound did.
+        let height_eps = f64::from(f32::EPSILON) * diag;
         let mut s = Self {
             pos,
             kind: vec![VertexKind::Complex; np],
@@ -316,7 +321,7 @@ impl Surface {
             live_tris: 0,
             center,
             diag,
-            area_eps: cross_eps * cross_eps,
+            height_eps2: height_eps * height_eps,
             mark: vec![0; np],
             gen: 0,
             slot: vec![0; np],
@@ -1110,7 +1115,7 @@ impl Surface {
         }
         let geo = Geometry {
             cos_limit: self.fold_cos,
-            area_eps: self.area_eps,
+            height_eps2: self.height_eps2,
             p: f64x3(p),
         };
         let mut changed = std::mem::take(&mut preview.changed);
@@ -1305,7 +1310,17 @@ impl Surface {
         let n0 = cross(f, a0);
         let n1 = cross(f, a1);
         let l1 = dot(n1, n1);
-        if l1 <= geo.area_eps {
+        // Squared edges: F = |q2 − q1|², A = |x − q1|² and B = |x − q2|² for the
+        // moving corner x.
+        let ff = dot(f, f);
+        let edge2 = |a: [f64; 3], x: [f64; 3]| {
+            let b = sub(x, q2);
+            (dot(a, a), dot(b, b))
+        };
+        let (na, nb) = edge2(a1, geo.p);
+        // The smallest height is |n1| over the longest edge: degenerate when it is
+        // at or below `ε·diag` (compared squared).
+        if l1 <= geo.height_eps2 * ff.max(na).max(nb) {
             return Err(Reject::Degenerate);
         }
         let d = dot(n0, n1);
@@ -1313,26 +1328,20 @@ impl Surface {
             return Err(Reject::FoldOver);
         }
         // Squared edge sums in corner order (for the quality filter): with the
-        // moving corner x at k, the edges are F = |q2 − q1|², A = |x − q1|² and
-        // B = |x − q2|², and the order 0→1, 1→2, 2→0 adds them as (A+F)+B, (B+A)+F
-        // or (F+B)+A (a difference and its negation square alike).
-        let ff = dot(f, f);
-        let edges = |a: [f64; 3], x: [f64; 3]| {
-            let (ea, b) = (dot(a, a), sub(x, q2));
-            let eb = dot(b, b);
-            match k {
-                0 => ea + ff + eb,
-                1 => eb + ea + ff,
-                _ => ff + eb + ea,
-            }
+        // moving corner x at k, the order 0→1, 1→2, 2→0 adds them as (A+F)+B,
+        // (B+A)+F or (F+B)+A (a difference and its negation square alike).
+        let edges = |(ea, eb): (f64, f64)| match k {
+            0 => ea + ff + eb,
+            1 => eb + ea + ff,
+            _ => ff + eb + ea,
         };
         Ok(ChangedTriangle {
             triangle: t,
             old_normal: n0,
             new_normal: n1,
             corner: k as u8,
-            old_edges2: edges(a0, pw),
-            new_edges2: edges(a1, geo.p),
+            old_edges2: edges(edge2(a0, pw)),
+            new_edges2: edges((na, nb)),
         })
     }
 

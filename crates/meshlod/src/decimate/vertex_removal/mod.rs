@@ -553,7 +553,7 @@ pub struct VertexRemoval {
     live: usize,
     options: VertexRemovalOptions,
     cos_feature: f64,
-    area_eps: f64,
+    height_eps: f64,
     plan: Plan,
     gen: u32,
     rejections: Rejections,
@@ -592,7 +592,7 @@ struct View<'a> {
     pt: &'a [Pt],
     fans: &'a [u32],
     cos_feature: f64,
-    area_eps: f64,
+    height_eps: f64,
     keep_corners: bool,
     lock_boundary: bool,
 }
@@ -890,7 +890,11 @@ impl Eval<'_> {
             let c = scale(add(self.plan.pos[i], self.plan.pos[j]), 1.0 / 3.0);
             base = add(base, scale(c, a));
         }
-        if area_sum <= self.m.area_eps {
+        // Degenerate when the fan's triangles are, on average, no taller over their
+        // loop edges than `ε·diag` (twice their area over the farthest loop point's
+        // distance): their normals are then not set by the stored points.
+        let r2_max = self.plan.pos.iter().fold(0.0f64, |r, p| r.max(dot(*p, *p)));
+        if area_sum <= self.m.height_eps * r2_max.sqrt() * nt as f64 {
             return Err(Refusal::Degenerate);
         }
         let ln = norm(area_n);
@@ -1033,10 +1037,11 @@ impl VertexRemoval {
                 ..Pt::default()
             })
             .collect();
-        // Twice an area (a cross product's length, length²) at or below which a
-        // triangle or a hole is degenerate: `ε·diag²`, the same relative size at
-        // any scale (as the collapse operator's test).
-        let eps = f64::from(f32::EPSILON) * surface.diagonal() * surface.diagonal();
+        // A height (length) at or below which a triangle or a hole is degenerate:
+        // `ε·diag`, the spacing of `f32` coordinates over the box, the same relative
+        // size at any scale and for triangles of any size (as the collapse
+        // operator's test).
+        let eps = f64::from(f32::EPSILON) * surface.diagonal();
         let has_groups = group.is_some();
         let tri: Vec<Tri> = tri
             .iter()
@@ -1074,7 +1079,7 @@ impl VertexRemoval {
             fan_garbage: 0,
             cos_feature: options.feature_angle.clamp(0.0, 180.0).to_radians().cos(),
             options,
-            area_eps: eps,
+            height_eps: eps,
             plan: Plan::default(),
             gen: 0,
             rejections: Rejections::default(),
@@ -1155,7 +1160,7 @@ impl VertexRemoval {
                 pt: &self.pt,
                 fans: &self.fans,
                 cos_feature: self.cos_feature,
-                area_eps: self.area_eps,
+                height_eps: self.height_eps,
                 keep_corners: self.options.keep_corners,
                 lock_boundary: self.options.lock_boundary,
             },
@@ -1346,7 +1351,7 @@ impl VertexRemoval {
             r,
             group,
             checks,
-            self.area_eps,
+            self.height_eps,
             &uv,
             &mut w_all,
             &mut forbid,
@@ -1366,7 +1371,7 @@ impl VertexRemoval {
         r: &Region,
         group: u32,
         checks: bool,
-        area_eps: f64,
+        height_eps: f64,
         uv: &[[f64; 2]],
         w_all: &mut [[f64; 2]],
         forbid: &mut [u64],
@@ -1389,9 +1394,12 @@ impl VertexRemoval {
                 let [a, b, cc] = c.map(|k| plan.pos[k as usize]);
                 let tn = cross(sub(b, a), sub(cc, a));
                 let l2 = dot(tn, tn);
-                // `l2` is a squared cross product (length⁴); `area_eps` a cross
-                // product's length (length²), so it is compared squared.
-                if l2 <= area_eps * area_eps {
+                // The smallest height, `|tn|` over the longest edge, at or below
+                // `height_eps` (compared squared).
+                let e2 = dot(sub(b, a), sub(b, a))
+                    .max(dot(sub(cc, a), sub(cc, a)))
+                    .max(dot(sub(cc, b), sub(cc, b)));
+                if l2 <= height_eps * height_eps * e2 {
                     return Err(Refusal::Degenerate);
                 }
                 if dot(tn, n) <= 1e-6 * l2.sqrt() {

@@ -24,9 +24,12 @@
 //!    blocked at cost 10⁻¹⁴ stayed out while collapses costing 12% of the diagonal
 //!    went ahead (the club at 1%, README). A pair rejected again at a retry is
 //!    counted again in the report's rejections.
-//! 5. When the queue runs dry before the target, all pairs are queued again (pairs
-//!    rejected earlier may have become legal); if soft filters vetoed anything they
-//!    are then switched off. A re-scan that performs nothing ends the run.
+//! 5. A soft filter (the sliver guard) does not veto: a collapse it refuses is
+//!    queued again at [`SOFT_PENALTY`] times its cost and performed when it comes
+//!    up at that key.
+//! 6. When the queue runs dry before the target, all pairs are queued again (pairs
+//!    rejected earlier may have become legal). A re-scan that performs nothing ends
+//!    the run.
 //!
 //! # Memory latency
 //! On a mesh larger than the cache, each pop would wait on a chain of dependent
@@ -80,6 +83,21 @@ pub struct EdgeCollapseOptions {
 /// nearer the exact greedy order than 16 and, unlike 16, keeps the cow at 1% within
 /// the facing-away bound of `tests/simplify_shared.rs`.
 const RETRY_GROWTH: f32 = 4.0;
+/// A collapse that a soft filter refuses (the sliver guard,
+/// [`crate::filter::AspectRatio`]) is queued again at this many times its cost
+/// and performed when it comes up at that key: the filter ranks collapses instead
+/// of vetoing them. As a veto (a refused pair waited for a retry or a re-scan, and
+/// was refused again until the queue ran dry and the filter was switched off), a
+/// terrain lost most of its shape before any sliver was allowed: the 262,144-triangle
+/// Grand Canyon grid at 1% had a Hausdorff distance of 14.4% of its diagonal and a
+/// mean of 1.08% (meshoptimizer 3.2% and 0.18%); at 16× the cost, 3.4% and 0.17%.
+/// On the benchmark meshes (bunny, fandisk, armadillo, Lucy, turbine blade,
+/// Nefertiti at 10% and 1%) 16 left every cell within ±1% but fandisk 1% (mean
+/// +8.5%, a cell that moves by ±50% with any change of order) and the turbine
+/// blade 1% (mean +3.5%, maximum −13.5%); 4 and 64 gave the same on the terrain,
+/// 4 lost Lucy's torch tip at 1% (maximum +17%). Measured 2026-12-05,
+/// `docs/benchmarks.md`.
+const SOFT_PENALTY: f64 = 16.0;
 /// Full re-scans allowed after the queue runs dry.
 const MAX_RESCANS: usize = 8;
 /// Queue entries allowed beyond two per live triangle before stale ones are swept.
@@ -110,7 +128,6 @@ struct Driver<'a, C: CostModel + ?Sized> {
     partners: Vec<Vec<u32>>,
     forward: Vec<u32>,
     scratch: Vec<u32>,
-    soft_on: bool,
 }
 
 impl<C: CostModel + ?Sized> Driver<'_, C> {
@@ -346,12 +363,10 @@ fn run_impl<C: CostModel + ?Sized>(
         partners,
         forward,
         scratch: Vec::new(),
-        soft_on: true,
     };
     d.push_all();
     let mut preview = Preview::default();
     let mut since_scan = 0usize;
-    let mut soft_vetoes = 0usize;
     let mut error_blocked_since_scan = 0usize;
     // Pairs rejected by a check that depends on their neighbourhood, for a retry
     // once the queue's cost has grown past them (see `RETRY_GROWTH`).
@@ -365,12 +380,7 @@ fn run_impl<C: CostModel + ?Sized>(
             break;
         }
         let Some(e) = d.heap.pop() else {
-            let relax = d.soft_on && soft_vetoes > 0;
-            if (since_scan > 0 && out.rescans < MAX_RESCANS) || relax {
-                if since_scan == 0 && relax {
-                    d.soft_on = false;
-                    out.soft_filters_relaxed = true;
-                }
+            if since_scan > 0 && out.rescans < MAX_RESCANS {
                 out.rescans += 1;
                 // Every pair is queued again, the parked ones included, and the
                 // costs start low again: so does the retry threshold.
@@ -378,7 +388,6 @@ fn run_impl<C: CostModel + ?Sized>(
                 parked_min = f32::INFINITY;
                 retried_at = 0.0;
                 since_scan = 0;
-                soft_vetoes = 0;
                 error_blocked_since_scan = 0;
                 d.push_all();
                 continue;
@@ -513,15 +522,14 @@ fn run_impl<C: CostModel + ?Sized>(
             d.prefetch_points([tt[(usize::from(ch.corner) + 1) % 3]]);
         }
         let mut vetoed = false;
+        let mut penalised = false;
         for f in d.filters {
-            if f.is_soft() && !d.soft_on {
-                continue;
-            }
             if !f.allow(d.surface, &preview) {
-                vetoed = true;
                 if f.is_soft() {
-                    soft_vetoes += 1;
+                    penalised = true;
+                    continue;
                 }
+                vetoed = true;
                 break;
             }
         }
@@ -532,9 +540,20 @@ fn run_impl<C: CostModel + ?Sized>(
             continue;
         }
         // Lazy keys: the exact priority may be higher than the queued one.
-        let exact = d.cost.confirm(d.surface, &c);
+        let mut exact = d.cost.confirm(d.surface, &c);
+        if penalised {
+            // A soft filter's refusal is a priority, not a veto (see
+            // `SOFT_PENALTY`).
+            // (A zero-cost collapse goes ahead: it changes no shape. Holding
+            // it back at the smallest positive key instead raised fandisk's
+            // maxima, at 10% by 7%.)
+            exact = exact.max(c.cost * SOFT_PENALTY);
+        }
         let requeued = Item { cost_bits: 0, ..e }.with_cost(exact * d.key_scale);
         if exact > c.cost && requeued.cost_bits > e.cost_bits {
+            if penalised {
+                out.rejections.filter += 1;
+            }
             d.heap.push(requeued);
             continue;
         }

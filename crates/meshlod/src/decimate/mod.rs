@@ -156,6 +156,8 @@ pub struct Outcome {
     /// Times the pairs rejected since the previous retry were queued again because
     /// the queue's cost had grown past theirs (edge collapse).
     pub retries: usize,
-    /// Whether soft filters were switched off to reach the target.
+    /// Whether soft filters were switched off to reach the target. Always `false`
+    /// since soft filters rank collapses instead of vetoing them (kept for
+    /// compatibility).
     pub soft_filters_relaxed: bool,
 }

@@ -3,10 +3,11 @@
 //!
 //! A [`Filter`] looks at a [`Preview`] of a collapse the operator already accepted
 //! (the surviving triangles with their old and new normals and corners) and says
-//! yes or no. It never changes the ranking. A filter is *soft* when it states a
-//! preference rather than a guarantee: the driver defers candidates vetoed by soft
-//! filters and, if the target cannot be reached otherwise, retries them with soft
-//! filters switched off.
+//! yes or no. A filter is *soft* when it states a preference rather than a
+//! guarantee: the edge-collapse driver does not veto what a soft filter refuses but
+//! ranks it later, at a multiple of its cost (`decimate::edge_collapse`), so the
+//! preference gives way where every alternative costs much more (a terrain's cliffs,
+//! where long thin triangles are the right shape).
 //!
 //! Provided: [`NormalDeviation`] (maximum normal turn), [`AspectRatio`] (no new
 //! slivers), [`LockBoundary`] (boundary points neither move nor go).
@@ -19,7 +20,8 @@ pub trait Filter {
     /// A short name for reports (`"normal_deviation"`).
     fn name(&self) -> &'static str;
 
-    /// Whether the veto may be relaxed to reach the target (default `false`).
+    /// Whether the filter states a preference that ranks collapses rather than a
+    /// veto (default `false`: a veto).
     fn is_soft(&self) -> bool {
         false
     }

@@ -62,9 +62,9 @@ fn repair_turns_triangles_back_without_leaving_the_input() {
             // The swaps' distance rule bounds the maximum, not the mean: on the
             // stratocaster at 10% (interpenetrating parts, where "facing away" is
             // partly an artefact of the nearest-triangle test) 10 swaps of 866
-            // triangles raise the mean by 1.4% since session 14's retries of
-            // rejected pairs changed that output; 2% still catches a swap rule that
-            // stops checking distances. The other cases keep 1%.
+            // triangles raise the mean by 1.4% since the retries of rejected
+            // pairs (2452d18, 2026-12-02) changed that output; 2% still catches a
+            // swap rule that stops checking distances. The other cases keep 1%.
             let tol = if file == "stratocaster.ply" && ratio == 0.1 {
                 1.02
             } else {

@@ -479,7 +479,7 @@ mod tests {
     fn flat_costs_zero_and_crease_costs_more_and_direction_matters() {
         let (s, _) = Surface::build(&folded(), &BuildOptions::default());
         let m = Melax::default();
-        // 3 → 0 along the straight border 6-3-0 with everything around 3 coplanar.
+        // 3 → 0 along the straight border 6-3-0 with everything around vertex 3 coplanar.
         let c30 = m.cost(&s, 3, 0).expect("edge");
         assert!(c30.abs() < 1e-12, "flat removal costs {c30}");
         // 3 → 4 would move a border point inward: maximal curvature.

@@ -70,7 +70,7 @@ pub struct QemOptions {
     /// Heckbert's area weighting (default); `0` weighs every triangle alike, which
     /// favours finely tessellated regions (features, in CAD and scan meshes); `0.5`
     /// lowered the maximum Hausdorff distance on most of our test meshes at a small
-    /// cost in mean distance (see the README).
+    /// cost in mean distance (see `docs/methods/qem.md`).
     pub area_exponent: f64,
     /// Weight λ of the displacement guard (`0` = off, default; must be finite and
     /// non-negative, as [`crate::SimplifyOptions`] checks). Checked only when a

@@ -78,7 +78,7 @@ pub struct EdgeCollapseOptions {
 /// facing tiers, QEM's opt-in displacement guard) or a key is infinite, later
 /// rejections at plain costs wait for a 4-fold rise of those keys or for the next
 /// re-scan. Measured
-/// against 2 and 16 on the shared meshes at 10% and 1% (session 14, README): all
+/// against 2 and 16 on the shared meshes at 10% and 1% (2026-12-02, docs/methods/qem.md): all
 /// three lower the Hausdorff maximum and mean by 7–11% on geometric average; 4 is
 /// nearer the exact greedy order than 16 and, unlike 16, keeps the cow at 1% within
 /// the facing-away bound of `tests/simplify_shared.rs`.

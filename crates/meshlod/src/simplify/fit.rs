@@ -112,7 +112,7 @@
 //! fit; the output samples then took the maxima ×0.73–1.01 (×0.936) and the means
 //! ×0.935–1.002 (×0.981) further, and the fourth-power term the maxima ×0.86–1.10
 //! (×0.95) at means ×0.997–1.027 (×1.010), for 1.3–2.0× the time of the
-//! simplification alone in all; see the README.
+//! simplification alone in all; see `docs/methods/qem.md`.
 
 use crate::collapse::{closest_on_triangle, FanCsr};
 use crate::filter::triangle_quality;

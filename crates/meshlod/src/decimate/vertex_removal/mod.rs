@@ -123,7 +123,7 @@
 //! deferring, its own slack may apply ([`VertexRemovalOptions::defer_slack`], never
 //! to keys at or above the switch key). [`VertexRemovalOptions::with_fast_order`]
 //! combines them; it is the default of [`crate::simplify::SimplifyOptions`]
-//! (measured against `vtkDecimatePro` in the README), and
+//! (measured against `vtkDecimatePro` in `docs/methods/vertex-removal.md`), and
 //! [`VertexRemovalOptions::with_exact_order`] the default of this type.
 //!
 //! A popped lower-bound entry is planned without the checks against existing edges

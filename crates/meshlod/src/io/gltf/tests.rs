@@ -680,7 +680,7 @@ fn strips_and_fans_drop_stitching_triangles() {
     read::triangulate(5, &[0, 1, 2, 2, 3, 4], 10, &mut tris);
     assert_eq!(tris, vec![[10, 11, 12], [13, 12, 14]]);
     tris.clear();
-    // Fan around 0: (1 2 0), (2 3 0), (3 4 0).
+    // Fan around vertex 0: (1 2 0), (2 3 0), (3 4 0).
     read::triangulate(6, &[0, 1, 2, 3, 4], 0, &mut tris);
     assert_eq!(tris, vec![[1, 2, 0], [2, 3, 0], [3, 4, 0]]);
     tris.clear();

@@ -51,7 +51,7 @@
 //! turbine blade and fandisk at 10% and 1%): alone (vertex samples), Hausdorff mean
 //! ×0.902–0.987 (geometric mean ×0.947) at maxima ×0.981–1.030 (×1.001); before
 //! the fit's iterations, mean ×0.913–0.985 (×0.952) and maxima ×0.929–1.150
-//! (×0.994) against the fit alone. See the README for the time.
+//! (×0.994) against the fit alone. See `docs/methods/qem.md` for the time.
 
 use super::{dot, f64v, norm, sub, Bvh, Connectivity, Frame, Mesh, Sample, V3};
 use crate::filter::triangle_quality;

@@ -22,7 +22,7 @@
 //!    that factor times the cost at the previous retry), the remembered pairs are
 //!    evaluated and queued again before the pop goes on. Without this, a pair
 //!    blocked at cost 10⁻¹⁴ stayed out while collapses costing 12% of the diagonal
-//!    went ahead (the club at 1%, README). A pair rejected again at a retry is
+//!    went ahead (Hoppe's club at 1%, `docs/methods/qem.md`). A pair rejected again at a retry is
 //!    counted again in the report's rejections.
 //! 5. A soft filter (the sliver guard) does not veto: a collapse it refuses is
 //!    queued again at [`SOFT_PENALTY`] times its cost and performed when it comes
@@ -45,8 +45,8 @@
 //! check has accepted it, so their loads overlap the filters and the collapse.
 //! None of this changes a result (the output meshes and reports are byte for byte
 //! those without it); it cut the time of a run by 15–27% on 70k–200k-triangle
-//! meshes and by 6–15% on a 3.2M-triangle one (2026-12-02, measurements in the
-//! README), for 3–4% more instructions.
+//! meshes and by 6–15% on a 3.2M-triangle one (2026-12-02, commit history), for
+//! 3–4% more instructions.
 
 use super::heap::{Heap, Item};
 use super::{Observer, Outcome, Rejections, StopReason, StopRule};

@@ -65,6 +65,9 @@ use std::time::Instant;
 use thiserror::Error;
 
 pub use crate::decimate::StopReason;
+/// A length in mesh units or relative to the diagonal; defined in [`crate::mesh`]
+/// (the clustering uses it too), re-exported here where the options use it.
+pub use crate::mesh::Distance;
 
 /// The simplification method.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize)]
@@ -96,33 +99,6 @@ impl Method {
             Self::Cluster => "cluster",
             Self::VertexRemoval => "vertex-removal",
             Self::Melax => "melax",
-        }
-    }
-}
-
-/// A length, either in mesh units or as a fraction of the bounding-box diagonal.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
-#[serde(rename_all = "snake_case")]
-pub enum Distance {
-    /// A fraction of the input's bounding-box diagonal (`0.01` = 1%).
-    Relative(f64),
-    /// In the mesh's units.
-    Absolute(f64),
-}
-
-impl Distance {
-    /// The length in mesh units for a mesh with bounding-box diagonal `diagonal`.
-    #[must_use]
-    pub fn resolve(self, diagonal: f64) -> f64 {
-        match self {
-            Self::Relative(f) => f * diagonal,
-            Self::Absolute(d) => d,
-        }
-    }
-
-    fn value(self) -> f64 {
-        match self {
-            Self::Relative(v) | Self::Absolute(v) => v,
         }
     }
 }

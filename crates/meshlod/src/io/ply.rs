@@ -47,7 +47,7 @@
 //! decimal that reads back to the same `f32`, so both encodings round-trip exactly
 //! (colours exactly when they are multiples of 1/255).
 
-use super::stream::{Sink, Source, StreamError};
+use super::stream_base::{Sink, Source, StreamError};
 use super::text::{self, Lines};
 use super::{max_elements, FormatError, Location};
 use crate::mesh::{Mesh, VertexAttributes};

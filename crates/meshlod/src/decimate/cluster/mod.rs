@@ -179,8 +179,7 @@ pub mod grid;
 use crate::io::stream;
 use crate::io::IoError;
 use crate::mesh::topology::UnionFind;
-use crate::mesh::{Mesh, Weld};
-use crate::simplify::Distance;
+use crate::mesh::{Distance, Mesh, Weld};
 use accumulate::{
     add_triangle, prepare_block, representative, Acc, Block, Prepared, BLOCK, MIN_WEIGHT,
 };

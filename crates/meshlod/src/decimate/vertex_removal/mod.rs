@@ -1411,8 +1411,6 @@ impl VertexRemoval {
         w_all: &mut [[f64; 2]],
         forbid: &mut [u64],
     ) -> Result<(), Refusal> {
-        let m = plan.q.len();
-        let n = r.normal;
         // Sub-polygons are copied `POLY_SPAN` bytes at a time (fixed-size copies,
         // no library calls); `polys` has room for that past its used length `used`.
         let mut buf = [0u8; 2 * POLY_SPAN];
@@ -1425,44 +1423,7 @@ impl VertexRemoval {
                 continue;
             }
             if len == 3 {
-                let c = [poly[0], poly[1], poly[2]];
-                let [a, b, cc] = c.map(|k| plan.pos[k as usize]);
-                let tn = cross(sub(b, a), sub(cc, a));
-                let l2 = dot(tn, tn);
-                // `l2` is a squared cross product (length⁴); `area_eps` a cross
-                // product's length (length²), so it is compared squared.
-                if l2 <= area_eps * area_eps {
-                    return Err(Refusal::Degenerate);
-                }
-                if dot(tn, n) <= 1e-6 * l2.sqrt() {
-                    return Err(Refusal::Flip);
-                }
-                // No flip against the input surface: the new triangle faces the side
-                // of the input triangles the fan stands for, and of those the old
-                // triangle on each shared loop edge stands for.
-                if dot(tn, plan.origin_sum) <= 0.0 {
-                    return Err(Refusal::Flip);
-                }
-                for e in 0..3 {
-                    let (x, y) = (c[e] as usize, c[(e + 1) % 3] as usize);
-                    let next = if x + 1 == m { 0 } else { x + 1 };
-                    if next == y && x < plan.origin.len() && dot(tn, plan.origin[x]) <= 0.0 {
-                        return Err(Refusal::Flip);
-                    }
-                }
-                let wedge = c.map(|k| {
-                    let k = k as usize;
-                    if k == r.first {
-                        plan.right[k]
-                    } else {
-                        plan.left[k]
-                    }
-                });
-                plan.out.push(NewTri {
-                    corner: c,
-                    wedge,
-                    group,
-                });
+                Self::push_triangle(plan, r, group, area_eps, [poly[0], poly[1], poly[2]])?;
                 continue;
             }
             // Best split line; existing edges are checked for the winner only (and
@@ -1473,65 +1434,7 @@ impl VertexRemoval {
             }
             let w = &w_all[..len];
             let best = loop {
-                let mut best: Option<(f64, usize, usize)> = None;
-                for i in 0..len {
-                    let pi = poly[i] as usize;
-                    let a = plan.pos[pi];
-                    let a2 = w[i];
-                    for j in i + 2..len {
-                        if i == 0 && j == len - 1 {
-                            continue;
-                        }
-                        let pj = poly[j] as usize;
-                        if forbid[i] & (1u64 << j) != 0 {
-                            continue;
-                        }
-                        let d = sub(plan.pos[pj], a);
-                        let ld2 = dot(d, d);
-                        // Split-plane normal `d × n`, unnormalised: its length is
-                        // |d| sin(d, n), the length of the projection of `d`.
-                        let d2 = [w[j][0] - a2[0], w[j][1] - a2[1]];
-                        let ls2 = d2[0] * d2[0] + d2[1] * d2[1];
-                        if ld2 == 0.0 || ls2 <= 1e-24 * ld2 {
-                            continue;
-                        }
-                        // Signed distances (times |d × n|) of the other points: those
-                        // strictly between i and j on one side, the rest on the other.
-                        let side = |k: usize| (w[k][0] - a2[0]) * d2[1] - (w[k][1] - a2[1]) * d2[0];
-                        // A line whose nearest point is below `lim` cannot beat the
-                        // best so far (`aspect2 <= best`, with a margin for rounding),
-                        // so the scan stops at the first such point; the scans start
-                        // next to the line's ends, where the nearest points usually are.
-                        let lim = best.map_or(0.0, |b| b.0 * (ls2 * ld2) * (1.0 - 1e-9));
-                        // Both halves strictly on their own side, at least `min` away.
-                        let mut min = f64::INFINITY;
-                        let valid = 'scan: {
-                            for k in i + 1..j {
-                                let s = side(k);
-                                if s <= 0.0 || s * s < lim {
-                                    break 'scan false;
-                                }
-                                min = min.min(s);
-                            }
-                            for k in (j + 1..len).chain(0..i) {
-                                let s = -side(k);
-                                if s <= 0.0 || s * s < lim {
-                                    break 'scan false;
-                                }
-                                min = min.min(s);
-                            }
-                            true
-                        };
-                        if !valid {
-                            continue;
-                        }
-                        // aspect = (min / |s|) / |d|, compared squared (no square roots).
-                        let aspect2 = min * min / (ls2 * ld2);
-                        if best.is_none_or(|b| aspect2 > b.0) {
-                            best = Some((aspect2, i, j));
-                        }
-                    }
-                }
+                let best = Self::best_split(plan, poly, w, forbid);
                 match best {
                     Some((_, i, j))
                         if checks && plan.adjacent(links, poly[i] as usize, poly[j] as usize) =>
@@ -1558,6 +1461,134 @@ impl VertexRemoval {
             plan.stack.push((o2 as u32, (len - j + i + 1) as u32));
         }
         Ok(())
+    }
+
+    /// A sub-polygon of three loop points `c` (region `r`, group `group`) becomes a
+    /// new triangle, unless it is degenerate (area below `area_eps`) or flips against
+    /// the region's normal or the input surface.
+    #[inline]
+    fn push_triangle(
+        plan: &mut Plan,
+        r: &Region,
+        group: u32,
+        area_eps: f64,
+        c: [u8; 3],
+    ) -> Result<(), Refusal> {
+        let m = plan.q.len();
+        let n = r.normal;
+        let [a, b, cc] = c.map(|k| plan.pos[k as usize]);
+        let tn = cross(sub(b, a), sub(cc, a));
+        let l2 = dot(tn, tn);
+        // `l2` is a squared cross product (length⁴); `area_eps` a cross
+        // product's length (length²), so it is compared squared.
+        if l2 <= area_eps * area_eps {
+            return Err(Refusal::Degenerate);
+        }
+        if dot(tn, n) <= 1e-6 * l2.sqrt() {
+            return Err(Refusal::Flip);
+        }
+        // No flip against the input surface: the new triangle faces the side
+        // of the input triangles the fan stands for, and of those the old
+        // triangle on each shared loop edge stands for.
+        if dot(tn, plan.origin_sum) <= 0.0 {
+            return Err(Refusal::Flip);
+        }
+        for e in 0..3 {
+            let (x, y) = (c[e] as usize, c[(e + 1) % 3] as usize);
+            let next = if x + 1 == m { 0 } else { x + 1 };
+            if next == y && x < plan.origin.len() && dot(tn, plan.origin[x]) <= 0.0 {
+                return Err(Refusal::Flip);
+            }
+        }
+        let wedge = c.map(|k| {
+            let k = k as usize;
+            if k == r.first {
+                plan.right[k]
+            } else {
+                plan.left[k]
+            }
+        });
+        plan.out.push(NewTri {
+            corner: c,
+            wedge,
+            group,
+        });
+        Ok(())
+    }
+
+    /// The best split line of sub-polygon `poly` (its points projected on the
+    /// region's plane: `w`): the diagonal `i`–`j` (not one `forbid` rules out) that
+    /// leaves both halves strictly on their own sides with the largest aspect
+    /// (smallest distance of a point to the line over the line's length), as
+    /// (aspect², i, j); `None` when no line splits it.
+    #[inline]
+    fn best_split(
+        plan: &Plan,
+        poly: &[u8],
+        w: &[[f64; 2]],
+        forbid: &[u64],
+    ) -> Option<(f64, usize, usize)> {
+        let len = poly.len();
+        let mut best: Option<(f64, usize, usize)> = None;
+        for i in 0..len {
+            let pi = poly[i] as usize;
+            let a = plan.pos[pi];
+            let a2 = w[i];
+            for j in i + 2..len {
+                if i == 0 && j == len - 1 {
+                    continue;
+                }
+                let pj = poly[j] as usize;
+                if forbid[i] & (1u64 << j) != 0 {
+                    continue;
+                }
+                let d = sub(plan.pos[pj], a);
+                let ld2 = dot(d, d);
+                // Split-plane normal `d × n`, unnormalised: its length is
+                // |d| sin(d, n), the length of the projection of `d`.
+                let d2 = [w[j][0] - a2[0], w[j][1] - a2[1]];
+                let ls2 = d2[0] * d2[0] + d2[1] * d2[1];
+                if ld2 == 0.0 || ls2 <= 1e-24 * ld2 {
+                    continue;
+                }
+                // Signed distances (times |d × n|) of the other points: those
+                // strictly between i and j on one side, the rest on the other.
+                let side = |k: usize| (w[k][0] - a2[0]) * d2[1] - (w[k][1] - a2[1]) * d2[0];
+                // A line whose nearest point is below `lim` cannot beat the
+                // best so far (`aspect2 <= best`, with a margin for rounding),
+                // so the scan stops at the first such point; the scans start
+                // next to the line's ends, where the nearest points usually are.
+                let lim = best.map_or(0.0, |b| b.0 * (ls2 * ld2) * (1.0 - 1e-9));
+                // Both halves strictly on their own side, at least `min` away.
+                let mut min = f64::INFINITY;
+                let valid = 'scan: {
+                    for k in i + 1..j {
+                        let s = side(k);
+                        if s <= 0.0 || s * s < lim {
+                            break 'scan false;
+                        }
+                        min = min.min(s);
+                    }
+                    for k in (j + 1..len).chain(0..i) {
+                        let s = -side(k);
+                        if s <= 0.0 || s * s < lim {
+                            break 'scan false;
+                        }
+                        min = min.min(s);
+                    }
+                    true
+                };
+                if !valid {
+                    continue;
+                }
+                // aspect = (min / |s|) / |d|, compared squared (no square roots).
+                let aspect2 = min * min / (ls2 * ld2);
+                if best.is_none_or(|b| aspect2 > b.0) {
+                    best = Some((aspect2, i, j));
+                }
+            }
+        }
+        best
     }
 
     /// The gap between the old fan and the new triangles `out[from..]` of region `r`:

@@ -1254,13 +1254,13 @@ impl Fitter<'_> {
     /// the ridge (scale 1; 0 where nothing is to fit). Also adds the point's own
     /// distance to its nearest input point to its local maximum.
     fn solve_steps(&self, x: &[V3], work: &mut Work) {
-        for p in 0..x.len() {
+        for (p, &xp) in x.iter().enumerate() {
             work.step[p] = [0.0; 3];
             work.scale[p] = 0.0;
             if self.fixed[p] {
                 continue;
             }
-            work.local_max[p] = work.local_max[p].max(norm(sub(x[p], self.target[p])));
+            work.local_max[p] = work.local_max[p].max(norm(sub(xp, self.target[p])));
             let mut q = work.quad[p];
             let tr = q.m[0] + q.m[4] + q.m[7];
             if tr.is_nan() || tr <= 0.0 {
@@ -1270,10 +1270,10 @@ impl Fitter<'_> {
             for k in 0..3 {
                 let mut e = [0.0; 3];
                 e[k] = 1.0;
-                q.add(&Quadric::from_plane(e, -x[p][k], RIDGE * tr));
+                q.add(&Quadric::from_plane(e, -xp[k], RIDGE * tr));
             }
-            if let Some(y) = q.solve(x[p], 0.0) {
-                work.step[p] = sub(y, x[p]).map(|v| DAMPING * v);
+            if let Some(y) = q.solve(xp, 0.0) {
+                work.step[p] = sub(y, xp).map(|v| DAMPING * v);
                 work.scale[p] = 1.0;
             }
         }
@@ -1341,9 +1341,9 @@ impl Fitter<'_> {
             }
             // (Every point: a pass over the output's points is cheap, and an
             // unchanged one passes again.)
-            for p in 0..x.len() {
+            for (p, xp) in x.iter().enumerate() {
                 if work.scale[p] > 0.0 {
-                    let to: V3 = std::array::from_fn(|j| x[p][j] + work.scale[p] * work.step[p][j]);
+                    let to: V3 = std::array::from_fn(|j| xp[j] + work.scale[p] * work.step[p][j]);
                     if norm(sub(to, self.target[p])) > work.local_max[p] {
                         bad_points.push(p as u32);
                     }
@@ -1494,8 +1494,8 @@ fn apply_steps(x: &mut [V3], work: &Work) -> bool {
     let mut any = false;
     for (p, xp) in x.iter_mut().enumerate() {
         if work.scale[p] > 0.0 {
-            for j in 0..3 {
-                xp[j] += work.scale[p] * work.step[p][j];
+            for (c, s) in xp.iter_mut().zip(work.step[p]) {
+                *c += work.scale[p] * s;
             }
             any = true;
         }

@@ -691,10 +691,10 @@ pub fn simplify(mesh: &Mesh, options: &SimplifyOptions) -> Result<(Mesh, Report)
 /// [`simplify`] with an [`Observer`] (progress, collapse recording) and the vertex
 /// provenance.
 ///
-/// The steps: a flat-shaded input goes through [`simplify_flat`], clustering
+/// The steps: a flat-shaded input goes through `simplify_flat`, clustering
 /// through [`cluster_mesh`]; otherwise the surface is built, decimated
-/// ([`decimate`]), written out ([`build_output`]) and refined ([`refine`]: the
-/// vertex fitting and the orientation repair).
+/// (`decimate`), written out (`build_output`) and refined (`refine`: the vertex
+/// fitting and the orientation repair).
 ///
 /// # Errors
 /// As [`simplify`].

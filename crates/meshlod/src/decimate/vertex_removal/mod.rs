@@ -2064,9 +2064,8 @@ impl VertexRemoval {
     /// is the largest accumulated bound of a performed removal). The observer sees
     /// `started` and `progress`, not `collapsed` (a removal is not an edge collapse).
     ///
-    /// Each queued entry is planned ([`Self::plan_removal`]), removed, and its loop
-    /// points queued again ([`Self::requeue_neighbours`]) in the order
-    /// [`RunOrder`] describes.
+    /// Each queued entry is planned (`plan_removal`), removed, and its loop points
+    /// queued again (`requeue_neighbours`) in the order `RunOrder` describes.
     pub fn run(&mut self, observer: &mut dyn Observer) -> Outcome {
         let target = self.options.stop.target_triangles;
         let mut order = self.run_order();

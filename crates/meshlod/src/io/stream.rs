@@ -19,8 +19,8 @@
 //!
 //! This module owns the public entry point and the choice of reader by format; each
 //! format module owns its streaming reader (`stl::stream`, `ply::stream`,
-//! `obj::stream`), built on the byte source and triangle sink of
-//! [`super::stream_base`], which depends on no format (so the formats and this
+//! `obj::stream`), built on the byte source and triangle sink of the private
+//! `io::stream_base` module, which depends on no format (so the formats and this
 //! module do not import each other).
 
 pub use super::stream_base::StreamSummary;

@@ -23,7 +23,7 @@ mod memory;
 mod pm;
 mod simplify;
 
-use clap::{Parser, Subcommand};
+use clap::{CommandFactory, FromArgMatches, Parser, Subcommand};
 use std::process::ExitCode;
 
 /// Mesh simplification and level of detail.
@@ -38,10 +38,15 @@ struct Cli {
 enum Command {
     /// Print counts, attributes, bounding box and topology of a mesh file.
     Info(info::InfoArgs),
-    /// Measure the distance between two meshes: one-sided and symmetric Hausdorff,
-    /// mean and RMS (Metro-style vertex + edge + face sampling).
+    /// Measure the distance between two meshes: Hausdorff, mean and RMS.
+    ///
+    /// One-sided and symmetric Hausdorff, mean and RMS distances by Metro-style
+    /// vertex + edge + face sampling.
     Measure(measure::MeasureArgs),
-    /// Simplify a mesh (quadric error metric edge collapse) and print a report.
+    /// Simplify a mesh (edge collapse, vertex removal or clustering) and print a report.
+    ///
+    /// The everyday flags are listed by `--help`, grouped by method; the tuning
+    /// options (thresholds and orders of each method) by `--help-tuning`.
     Simplify(Box<simplify::SimplifyArgs>),
     /// Progressive meshes: build a .pmesh, extract a level.
     #[command(subcommand)]
@@ -97,8 +102,30 @@ pub(crate) fn stdout_failed(e: &std::io::Error) -> ! {
     std::process::exit(1);
 }
 
+/// Parses the command line as [`Cli::parse`] does, answering `meshlod simplify
+/// --help-tuning` (which the required arguments would refuse) first: `None` when it
+/// did.
+fn parse() -> Option<Cli> {
+    let mut matches = Cli::command().get_matches();
+    if let Some(("simplify", sub)) = matches.subcommand() {
+        if sub.get_flag("help_tuning") {
+            let cli = Cli::command();
+            if let Some(cmd) = cli.find_subcommand("simplify") {
+                out!("{}", simplify::tuning_help(cmd));
+            }
+            return None;
+        }
+    }
+    Some(
+        Cli::from_arg_matches_mut(&mut matches)
+            .unwrap_or_else(|e| e.format(&mut Cli::command()).exit()),
+    )
+}
+
 fn main() -> ExitCode {
-    let cli = Cli::parse();
+    let Some(cli) = parse() else {
+        return ExitCode::SUCCESS;
+    };
     let result = match cli.command {
         Command::Info(args) => info::run(&args),
         Command::Measure(args) => measure::run(&args),

@@ -4,6 +4,10 @@
 //! `[--cell-size E] [--count-tolerance F] [--representative quadric|average|weighted]
 //! [--stream]`, vertex removal `[--feature-angle DEG] [--keep-corners]`.
 //!
+//! `--help` shows the everyday flags grouped by method (at most 20, a test checks);
+//! the tuning knobs (`--defer-below`, `--solve-condition`, …) are hidden there but
+//! parse as before, and `--help-tuning` lists them ([`tuning_help`]).
+//!
 //! Reads with `meshlod::io::read_scene`, simplifies, writes with `write_scene`. A glTF
 //! input written back as glTF keeps its scene: each part (glTF mesh) is simplified
 //! separately with the same ratio, so materials, nodes and skins survive. Any other
@@ -33,76 +37,172 @@ use std::io::IsTerminal;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
+/// Headings of `meshlod simplify --help` (the everyday flags, by method).
+mod heading {
+    pub const TARGET: &str = "Target";
+    pub const METHOD: &str = "Method";
+    pub const QEM: &str = "QEM (--method qem)";
+    pub const VERTEX_REMOVAL: &str = "Vertex removal (--method vertex-removal)";
+    pub const CLUSTER: &str = "Clustering (--method cluster)";
+    pub const OUTPUT: &str = "Output";
+    pub const TUNING_QEM: &str = "Tuning: edge collapse (qem, melax)";
+    pub const TUNING_VERTEX_REMOVAL: &str = "Tuning: vertex removal";
+    pub const TUNING_CLUSTER: &str = "Tuning: clustering";
+    pub const TUNING_ANY: &str = "Tuning: every method";
+}
+
+/// The footer of `meshlod simplify --help`, pointing at the tuning options.
+const TUNING_FOOTER: &str = "Tuning options (thresholds and orders of each method, whose defaults \
+suit most meshes) are hidden here: `meshlod simplify --help-tuning` lists them.";
+
 /// Arguments of `meshlod simplify`.
+///
+/// The everyday flags are shown by `--help`, grouped by method; the tuning knobs are
+/// hidden there (`hide = true`) and listed by `--help-tuning` ([`tuning_help`]). Every
+/// flag parses whether shown or not.
 #[derive(Debug, clap::Args)]
-#[command(allow_negative_numbers = true)]
+#[command(allow_negative_numbers = true, after_help = TUNING_FOOTER, after_long_help = TUNING_FOOTER)]
 pub struct SimplifyArgs {
     /// Input mesh (.obj .ply .stl .off .gltf .glb .m).
     pub input: PathBuf,
-    /// Output mesh; the format follows the extension.
-    #[arg(short = 'o', long = "output")]
-    pub output: PathBuf,
+    /// List the tuning options hidden from --help, and exit.
+    #[arg(long, hide = true, exclusive = true)]
+    pub help_tuning: bool,
+
+    // Target.
     /// Keep this fraction of the triangles (0..=1). Default 0.5 when neither
     /// --ratio, --triangles nor --max-error is given.
-    #[arg(long, conflicts_with = "triangles")]
+    #[arg(long, conflicts_with = "triangles", help_heading = heading::TARGET)]
     pub ratio: Option<f64>,
     /// Target triangle count.
-    #[arg(long)]
+    #[arg(long, help_heading = heading::TARGET)]
     pub triangles: Option<usize>,
     /// Stop before a collapse whose error exceeds this distance (a fraction of the
     /// bounding-box diagonal, or mesh units with --absolute).
-    #[arg(long)]
+    #[arg(long, help_heading = heading::TARGET)]
     pub max_error: Option<f64>,
     /// Read --max-error and --pair-threshold, and print `error`, in mesh units.
-    #[arg(long)]
+    #[arg(long, help_heading = heading::TARGET)]
     pub absolute: bool,
-    /// Simplification method.
-    #[arg(long, value_enum, default_value_t = MethodArg::Qem)]
+
+    // Method.
+    /// Simplification method: `qem`, quadric error metric edge collapse (Garland &
+    /// Heckbert); `cluster`, vertex clustering on a uniform grid (Rossignac & Borrel;
+    /// Lindstrom); `vertex-removal`, Schroeder vertex decimation (output vertices are
+    /// input vertices); `melax`, Melax's edge cost, half-edge collapses (no vertex
+    /// moves).
+    #[arg(long, value_enum, default_value_t = MethodArg::Qem, hide_possible_values = true, help_heading = heading::METHOD)]
     pub method: MethodArg,
-    /// Where QEM places a merged vertex (`endpoint`: half-edge collapses, as
-    /// `meshlod pm build --method qem` records).
-    #[arg(long, value_enum)]
-    pub placement: Option<PlacementArg>,
-    /// Never move or remove a boundary vertex.
-    #[arg(long)]
+    /// Never move or remove a boundary vertex (qem, melax, vertex-removal).
+    #[arg(long, help_heading = heading::METHOD)]
     pub lock_boundary: bool,
+
+    // QEM.
+    /// Where QEM places a merged vertex: `optimal`, the quadric minimiser (default);
+    /// `endpoint`, the better endpoint (half-edge collapses, no vertex moves, as
+    /// `meshlod pm build --method qem` records); `midpoint`, the edge midpoint.
+    #[arg(long, value_enum, hide_possible_values = true, help_heading = heading::QEM)]
+    pub placement: Option<PlacementArg>,
+    /// qem (optimal or midpoint placement): after simplifying, swap diagonals toward
+    /// the input (--swap), then move the output's points toward the input surface
+    /// without raising the largest distance around them (2 iterations; with the
+    /// swaps, Hausdorff mean 6-22% lower on the benchmark meshes than without --fit
+    /// and maxima lower or within 0.01%, at 1.8-2.8x the time).
+    #[arg(long, help_heading = heading::QEM)]
+    pub fit: bool,
+    /// qem (optimal or midpoint placement): after simplifying, swap the diagonal of
+    /// two triangles where the other one lies nearer the input surface, without
+    /// raising the largest distance around it (lowered the Hausdorff mean by 1-10% on
+    /// the benchmark meshes, at 1.0-1.5x the time; --fit includes it).
+    #[arg(long, help_heading = heading::QEM)]
+    pub swap: bool,
     /// Also contract non-edge vertex pairs closer than T (fraction of the diagonal,
     /// or mesh units with --absolute), joining separate parts. Lets the topology
     /// change.
-    #[arg(long, value_name = "T")]
+    #[arg(long, value_name = "T", help_heading = heading::QEM)]
     pub pair_threshold: Option<f64>,
+
+    // Vertex removal.
+    /// vertex-removal: dihedral angle in degrees above which an edge is a feature
+    /// (default 15).
+    #[arg(long, value_name = "DEG", help_heading = heading::VERTEX_REMOVAL)]
+    pub feature_angle: Option<f64>,
+    /// vertex-removal: never remove corner vertices (one or more than two feature
+    /// edges).
+    #[arg(long, help_heading = heading::VERTEX_REMOVAL)]
+    pub keep_corners: bool,
+
+    // Clustering.
+    /// Cluster cell side (--method cluster): a fraction of the bounding-box diagonal,
+    /// or mesh units with --absolute. Overrides --ratio/--triangles.
+    #[arg(long, value_name = "E", help_heading = heading::CLUSTER)]
+    pub cell_size: Option<f64>,
+    /// Cluster representative (--method cluster): `quadric`, the minimiser of the
+    /// cell's plane quadrics (Lindstrom 2000); `average`, the mean of the cell's
+    /// triangle corners; `weighted`, their area-weighted mean.
+    #[arg(long, value_enum, default_value_t = RepresentativeArg::Quadric, hide_possible_values = true, help_heading = heading::CLUSTER)]
+    pub representative: RepresentativeArg,
+    /// Stream the input triangle by triangle (--method cluster; STL, binary PLY, OBJ):
+    /// memory proportional to the occupied cells, the file is read twice, attributes
+    /// are not carried.
+    #[arg(long, help_heading = heading::CLUSTER)]
+    pub stream: bool,
+
+    // Output.
+    /// Output mesh; the format follows the extension.
+    #[arg(short = 'o', long = "output", help_heading = heading::OUTPUT)]
+    pub output: PathBuf,
+    /// Write ASCII where the format has a choice (PLY, STL).
+    #[arg(long, help_heading = heading::OUTPUT)]
+    pub ascii: bool,
+    /// Print the report as one JSON object.
+    #[arg(long, help_heading = heading::OUTPUT)]
+    pub json: bool,
+    /// Also measure the result against the input: symmetric Hausdorff, mean and RMS
+    /// distance (Metro sampling, as `meshlod measure` with default samples), added to
+    /// the report as `hausdorff` (relative to the bbox diagonal, or absolute with
+    /// --absolute) and `measure` (both directions, absolute units).
+    #[arg(long, help_heading = heading::OUTPUT)]
+    pub measure: bool,
+
+    // Tuning (hidden from --help; `--help-tuning`): edge collapse.
     /// Weight of the boundary constraint planes (default 10).
-    #[arg(long, value_name = "W")]
+    #[arg(long, value_name = "W", hide = true, help_heading = heading::TUNING_QEM)]
     pub boundary_weight: Option<f64>,
     /// QEM triangle weights area^A (1 = area weighting, default; 0.5 keeps fine
     /// detail and lowers the maximum error on most meshes; 0 = uniform).
-    #[arg(long, value_name = "A")]
+    #[arg(long, value_name = "A", hide = true, help_heading = heading::TUNING_QEM)]
     pub area_exponent: Option<f64>,
     /// QEM: conditioning threshold C of the optimal-placement solve, in [0, 1):
     /// where det(A) <= C·(tr(A)/3)³ (A the quadric's 3×3 part) the vertex goes to
     /// the best point on the edge instead. Default 1e-7.
-    #[arg(long, value_name = "C")]
+    #[arg(long, value_name = "C", hide = true, help_heading = heading::TUNING_QEM)]
     pub solve_condition: Option<f64>,
     /// QEM: displacement guard weight L (0 = off, default): a collapse whose old
     /// points end up a distance e off the triangles it leaves ranks at least
     /// L · W · e², W the pair's quadric weight (area-scaled; protects thin tips
     /// the plane quadric cannot see shortened).
-    #[arg(long, value_name = "L")]
+    #[arg(long, value_name = "L", hide = true, help_heading = heading::TUNING_QEM)]
     pub displacement_guard: Option<f64>,
     /// Refuse collapses that turn a triangle's normal by more than DEG degrees.
-    #[arg(long, value_name = "DEG")]
+    #[arg(long, value_name = "DEG", hide = true, help_heading = heading::TUNING_QEM)]
     pub max_normal_deviation: Option<f64>,
     /// Minimum quality of new triangles (0 disables the sliver guard; default 0.1).
-    #[arg(long, value_name = "Q")]
+    #[arg(long, value_name = "Q", hide = true, help_heading = heading::TUNING_QEM)]
     pub min_quality: Option<f64>,
-    /// vertex-removal: dihedral angle in degrees above which an edge is a feature
-    /// (default 15).
-    #[arg(long, value_name = "DEG")]
-    pub feature_angle: Option<f64>,
-    /// vertex-removal: never remove corner vertices (one or more than two feature
-    /// edges).
-    #[arg(long)]
-    pub keep_corners: bool,
+    /// qem, melax: skip the orientation repair (diagonal swaps that turn triangles
+    /// facing away from the input back toward it without raising the distance).
+    #[arg(long, hide = true, help_heading = heading::TUNING_QEM)]
+    pub no_facing_repair: bool,
+    /// With --fit: no diagonal swaps (the fitting alone; without --fit there are
+    /// none anyway).
+    #[arg(long, conflicts_with = "swap", hide = true, help_heading = heading::TUNING_QEM)]
+    pub no_swap: bool,
+    /// qem: iterations of the --fit fitting (default 2; implies --fit when above 0).
+    #[arg(long, value_name = "N", hide = true, help_heading = heading::TUNING_QEM)]
+    pub fit_iterations: Option<u32>,
+
+    // Tuning: vertex removal.
     /// vertex-removal: the removal order. `fast` (default): neighbours of a removal
     /// wait at their previous cost, and a removal within 1.2x of the next queued
     /// cost is done at once, until a removal's cost reaches 0.2% of the
@@ -110,95 +210,69 @@ pub struct SimplifyArgs {
     /// cheapest removal first (lower error, about 1.5-1.9x the instructions).
     /// --order-slack and --defer-neighbours without --order start from `exact`, as
     /// before.
-    #[arg(long, value_enum)]
+    #[arg(long, value_enum, hide = true, help_heading = heading::TUNING_VERTEX_REMOVAL)]
     pub order: Option<OrderArg>,
     /// vertex-removal: order slack S >= 1: a removal whose exact cost is at most S
     /// times the next queued cost is done at once (1 = exact cheapest-first order;
     /// given without --order it starts from the exact order).
-    #[arg(long, value_name = "S")]
+    #[arg(long, value_name = "S", hide = true, help_heading = heading::TUNING_VERTEX_REMOVAL)]
     pub order_slack: Option<f64>,
     /// vertex-removal: deferred re-keying: neighbours of a removal stay queued at
     /// their previous cost divided by P (>= 1) until they come out of the queue
     /// (faster, inexact order; given without --order it starts from the exact
     /// order and defers for the whole run; default: --order).
-    #[arg(long, value_name = "P")]
+    #[arg(long, value_name = "P", hide = true, help_heading = heading::TUNING_VERTEX_REMOVAL)]
     pub defer_neighbours: Option<f64>,
     /// vertex-removal, while deferring (the fast order, or --defer-neighbours):
     /// defer only while the removed point's cost is below F times the bounding-box
     /// diagonal; exact order from the first removal that reaches it on (default:
     /// 0.002 in the fast order; the whole run with --defer-neighbours alone).
-    #[arg(long, value_name = "F")]
+    #[arg(long, value_name = "F", hide = true, help_heading = heading::TUNING_VERTEX_REMOVAL)]
     pub defer_below: Option<f64>,
     /// vertex-removal, while deferring (the fast order, or --defer-neighbours): bound
     /// a deferred neighbour's changed fan at once and queue it at the larger of that
     /// bound and its deferred cost.
-    #[arg(long)]
+    #[arg(long, hide = true, help_heading = heading::TUNING_VERTEX_REMOVAL)]
     pub defer_bound: bool,
     /// vertex-removal, while deferring (the fast order, or --defer-neighbours): order
     /// slack until --defer-below's switch; `inf`: every planned candidate is removed
     /// when it comes out (default: 1.2 in the fast order; --order-slack with
     /// --defer-neighbours alone).
-    #[arg(long, value_name = "S")]
+    #[arg(long, value_name = "S", hide = true, help_heading = heading::TUNING_VERTEX_REMOVAL)]
     pub defer_slack: Option<f64>,
-    /// qem, melax: skip the orientation repair (diagonal swaps that turn triangles
-    /// facing away from the input back toward it without raising the distance).
-    #[arg(long)]
-    pub no_facing_repair: bool,
+
+    // Tuning: clustering.
+    /// Relative tolerance on the triangle count when --method cluster searches its cell
+    /// size for --ratio/--triangles (default 0.05: within 5% of the target). Smaller
+    /// values cost more probes of the grid.
+    #[arg(long, value_name = "F", hide = true, help_heading = heading::TUNING_CLUSTER)]
+    pub count_tolerance: Option<f64>,
+
+    // Tuning: every method.
     /// Keep a flat-shaded input's normals as they are. By default, when every
     /// triangle's corners carry its own facet normal (every point split into one
     /// vertex per triangle, so no point could move), the normals are set aside
     /// while simplifying and the output gets its own triangles' facet normals.
-    #[arg(long)]
+    #[arg(long, hide = true, help_heading = heading::TUNING_ANY)]
     pub no_reshade_flat: bool,
-    /// qem (optimal or midpoint placement): after simplifying, swap diagonals toward
-    /// the input (--swap), then move the output's points toward the input surface
-    /// without raising the largest distance around them (2 iterations; with the
-    /// swaps, Hausdorff mean 6-22% lower on the benchmark meshes than without --fit
-    /// and maxima lower or within 0.01%, at 1.8-2.8x the time).
-    #[arg(long)]
-    pub fit: bool,
-    /// qem (optimal or midpoint placement): after simplifying, swap the diagonal of
-    /// two triangles where the other one lies nearer the input surface, without
-    /// raising the largest distance around it (lowered the Hausdorff mean by 1-10% on
-    /// the benchmark meshes, at 1.0-1.5x the time; --fit includes it).
-    #[arg(long)]
-    pub swap: bool,
-    /// With --fit: no diagonal swaps (the fitting alone; without --fit there are
-    /// none anyway).
-    #[arg(long, conflicts_with = "swap")]
-    pub no_swap: bool,
-    /// qem: iterations of that fitting (implies --fit when above 0).
-    #[arg(long, value_name = "N")]
-    pub fit_iterations: Option<u32>,
-    /// Write ASCII where the format has a choice (PLY, STL).
-    #[arg(long)]
-    pub ascii: bool,
-    /// Print the report as one JSON object.
-    #[arg(long)]
-    pub json: bool,
-    /// Also measure the result against the input: symmetric Hausdorff, mean and RMS
-    /// distance (Metro sampling, as `meshlod measure` with default samples), added to
-    /// the report as `hausdorff` (relative to the bbox diagonal, or absolute with
-    /// --absolute) and `measure` (both directions, absolute units).
-    #[arg(long)]
-    pub measure: bool,
-    /// Cluster cell side (--method cluster): a fraction of the bounding-box diagonal,
-    /// or mesh units with --absolute. Overrides --ratio/--triangles.
-    #[arg(long, value_name = "E")]
-    pub cell_size: Option<f64>,
-    /// Cluster representative (--method cluster).
-    #[arg(long, value_enum, default_value_t = RepresentativeArg::Quadric)]
-    pub representative: RepresentativeArg,
-    /// Stream the input triangle by triangle (--method cluster; STL, binary PLY, OBJ):
-    /// memory proportional to the occupied cells, the file is read twice, attributes
-    /// are not carried.
-    #[arg(long)]
-    pub stream: bool,
-    /// Relative tolerance on the triangle count when --method cluster searches its cell
-    /// size for --ratio/--triangles (default 0.05: within 5% of the target). Smaller
-    /// values cost more probes of the grid.
-    #[arg(long, value_name = "F")]
-    pub count_tolerance: Option<f64>,
+}
+
+/// The text of `meshlod simplify --help-tuning`: the flags hidden from `--help`,
+/// under their headings, from the same clap definitions (so it cannot drift).
+pub fn tuning_help(simplify: &clap::Command) -> String {
+    let mut cmd = simplify
+        .clone()
+        .about("Tuning options of `meshlod simplify`: thresholds and orders of each method, whose defaults suit most meshes. Each flag is accepted with the everyday ones of `meshlod simplify --help`.")
+        .long_about(None)
+        .after_help("")
+        .after_long_help("")
+        .override_usage("meshlod simplify INPUT -o OUTPUT [OPTIONS] [TUNING OPTIONS]")
+        .disable_help_flag(true)
+        .mut_args(|a| {
+            let tuning = a.is_hide_set() && a.get_id() != "help_tuning";
+            a.hide(!tuning)
+        });
+    cmd.render_long_help().to_string()
 }
 
 /// `--representative` values.

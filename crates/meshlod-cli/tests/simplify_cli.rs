@@ -655,3 +655,109 @@ fn measure_refuses_impossible_views() {
         assert!(String::from_utf8_lossy(&out.stderr).contains("must be"));
     }
 }
+
+/// The flag lines of a help text: lines whose first non-blank character is `-`
+/// (`-o, --output`, `--ratio`, …).
+fn flag_lines(help: &str) -> Vec<&str> {
+    help.lines()
+        .filter(|l| l.trim_start().starts_with('-'))
+        .collect()
+}
+
+#[test]
+fn simplify_help_shows_at_most_20_flags_and_hides_the_tuning_knobs() {
+    for help in ["--help", "-h"] {
+        let out = meshlod(&["simplify", help]);
+        assert!(out.status.success());
+        let text = String::from_utf8_lossy(&out.stdout);
+        let flags = flag_lines(&text);
+        assert!(
+            flags.len() <= 20,
+            "`simplify {help}` shows {} flags:\n{}",
+            flags.len(),
+            flags.join("\n")
+        );
+        for everyday in [
+            "--ratio",
+            "--triangles",
+            "--max-error",
+            "--method",
+            "--fit",
+            "--json",
+        ] {
+            assert!(text.contains(everyday), "{everyday} missing from {help}");
+        }
+        for tuning in [
+            "--defer-below",
+            "--defer-slack",
+            "--solve-condition",
+            "--order-slack",
+        ] {
+            assert!(!text.contains(tuning), "{tuning} shown by {help}");
+        }
+        assert!(
+            text.contains("--help-tuning"),
+            "{help} does not point at --help-tuning"
+        );
+    }
+    // Every hidden knob is listed by --help-tuning.
+    let out = meshlod(&["simplify", "--help-tuning"]);
+    assert!(out.status.success());
+    let text = String::from_utf8_lossy(&out.stdout);
+    for tuning in [
+        "--boundary-weight",
+        "--area-exponent",
+        "--solve-condition",
+        "--displacement-guard",
+        "--max-normal-deviation",
+        "--min-quality",
+        "--no-facing-repair",
+        "--no-swap",
+        "--fit-iterations",
+        "--order",
+        "--order-slack",
+        "--defer-neighbours",
+        "--defer-below",
+        "--defer-bound",
+        "--defer-slack",
+        "--count-tolerance",
+        "--no-reshade-flat",
+    ] {
+        assert!(text.contains(tuning), "{tuning} missing from --help-tuning");
+    }
+    assert!(
+        !flag_lines(&text).iter().any(|l| l.contains("--ratio")),
+        "--help-tuning lists the everyday flags"
+    );
+}
+
+#[test]
+fn hidden_tuning_knobs_still_parse() {
+    let dir = tempfile::tempdir().unwrap();
+    let input = torus_file(dir.path());
+    let output = dir.path().join("out.ply");
+    for extra in [
+        &[
+            "--method",
+            "vertex-removal",
+            "--defer-below",
+            "0.001",
+            "--defer-slack",
+            "1.5",
+        ][..],
+        &[
+            "--solve-condition",
+            "1e-6",
+            "--displacement-guard",
+            "0.5",
+            "--min-quality",
+            "0.2",
+        ],
+        &["--method", "cluster", "--count-tolerance", "0.1"],
+    ] {
+        let mut args = vec!["--ratio", "0.2", "--json"];
+        args.extend_from_slice(extra);
+        let j = json(&simplify(&input, &output, &args));
+        assert!(j["triangles_out"].as_u64().unwrap() > 0, "{extra:?}");
+    }
+}

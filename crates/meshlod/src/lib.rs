@@ -7,7 +7,8 @@
 //! measurement (Cignoni, Rocchini & Scopigno 1998).
 //!
 //! The crate is organised by domain nouns:
-//! - [`mesh`]: the in-memory [`Mesh`], welding, connectivity, statistics;
+//! - [`mesh`]: the in-memory [`Mesh`], welding, connectivity, statistics, and the
+//!   [`mesh::Distance`] (mesh units or relative to the diagonal) the options take;
 //! - [`io`]: OBJ, PLY, STL, OFF, glTF/GLB and Hoppe `.m` readers and writers;
 //! - [`metrics`]: closest points (BVH), Hausdorff / mean / RMS distances, screen-space error;
 //! - [`simplify()`]: the public simplification entry point (QEM edge collapse, vertex

@@ -56,7 +56,7 @@ use crate::decimate::cluster::{
 };
 use crate::decimate::edge_collapse::{self, EdgeCollapseOptions};
 use crate::decimate::vertex_removal::{TriangleLists, VertexRemoval, VertexRemovalOptions};
-use crate::decimate::{NoObserver, Observer, Rejections, StopRule};
+use crate::decimate::{NoObserver, Observer, Outcome, Rejections, StopRule};
 use crate::filter::{AspectRatio, Filter, LockBoundary, NormalDeviation};
 use crate::mesh::{Mesh, MeshError};
 use crate::metrics::bvh::Bvh;
@@ -65,6 +65,9 @@ use std::time::Instant;
 use thiserror::Error;
 
 pub use crate::decimate::StopReason;
+/// A length in mesh units or relative to the diagonal; defined in [`crate::mesh`]
+/// (the clustering uses it too), re-exported here where the options use it.
+pub use crate::mesh::Distance;
 
 /// The simplification method.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize)]
@@ -96,33 +99,6 @@ impl Method {
             Self::Cluster => "cluster",
             Self::VertexRemoval => "vertex-removal",
             Self::Melax => "melax",
-        }
-    }
-}
-
-/// A length, either in mesh units or as a fraction of the bounding-box diagonal.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
-#[serde(rename_all = "snake_case")]
-pub enum Distance {
-    /// A fraction of the input's bounding-box diagonal (`0.01` = 1%).
-    Relative(f64),
-    /// In the mesh's units.
-    Absolute(f64),
-}
-
-impl Distance {
-    /// The length in mesh units for a mesh with bounding-box diagonal `diagonal`.
-    #[must_use]
-    pub fn resolve(self, diagonal: f64) -> f64 {
-        match self {
-            Self::Relative(f) => f * diagonal,
-            Self::Absolute(d) => d,
-        }
-    }
-
-    fn value(self) -> f64 {
-        match self {
-            Self::Relative(v) | Self::Absolute(v) => v,
         }
     }
 }
@@ -715,6 +691,11 @@ pub fn simplify(mesh: &Mesh, options: &SimplifyOptions) -> Result<(Mesh, Report)
 /// [`simplify`] with an [`Observer`] (progress, collapse recording) and the vertex
 /// provenance.
 ///
+/// The steps: a flat-shaded input goes through `simplify_flat`, clustering
+/// through [`cluster_mesh`]; otherwise the surface is built, decimated
+/// (`decimate`), written out (`build_output`) and refined (`refine`: the vertex
+/// fitting and the orientation repair).
+///
 /// # Errors
 /// As [`simplify`].
 pub fn simplify_observed(
@@ -730,22 +711,7 @@ pub fn simplify_observed(
         .then(|| flat::FlatShading::detect(mesh))
         .flatten()
     {
-        let mut inner = options.clone().with_reshade_flat(false);
-        if let Some(l) = options.locked_vertices.as_deref() {
-            inner.locked_vertices = Some(flat.merged_mask(l));
-        }
-        let s = simplify_observed(&flat.merged, &inner, observer)?;
-        let (out, vertex_source) = flat.reshade(mesh, s.mesh, &s.vertex_source);
-        let mut report = s.report;
-        report.vertices_in = mesh.positions.len();
-        report.vertices_out = out.positions.len();
-        report.flat_shading = true;
-        report.seconds = start.elapsed().as_secs_f64();
-        return Ok(Simplified {
-            mesh: out,
-            report,
-            vertex_source,
-        });
+        return simplify_flat(mesh, &flat, options, observer, start);
     }
     if options.method == Method::Cluster {
         let target = options.target_for(mesh.triangles.len());
@@ -772,83 +738,7 @@ pub fn simplify_observed(
     );
     let diag = surface.diagonal();
     let target = options.target_for(mesh.triangles.len());
-    let allow_non_edge = !options.preserve_topology && options.pair_threshold.is_some();
-    let extra_pairs = match options.pair_threshold {
-        Some(t) if allow_non_edge => close_pairs(&mut surface, t.resolve(diag)),
-        _ => Vec::new(),
-    };
-    let driver_options = EdgeCollapseOptions {
-        limits: OperatorLimits {
-            allow_non_edge,
-            ..OperatorLimits::default()
-        },
-        stop: StopRule {
-            target_triangles: target,
-            max_error: options.max_error.map(|e| e.resolve(diag)),
-        },
-        extra_pairs,
-    };
-    let normal = options.max_normal_deviation.map(NormalDeviation::new);
-    let aspect = (options.min_triangle_quality > 0.0).then_some(AspectRatio {
-        min_quality: options.min_triangle_quality,
-    });
-    let lock = options.lock_boundary.then_some(LockBoundary);
-    let mut filters: Vec<&dyn Filter> = Vec::new();
-    if let Some(f) = &lock {
-        filters.push(f);
-    }
-    if let Some(f) = &normal {
-        filters.push(f);
-    }
-    if let Some(f) = &aspect {
-        filters.push(f);
-    }
-    let (outcome, triangles) = match options.method {
-        Method::Cluster => unreachable!("handled above"),
-        Method::Qem => {
-            let qo = QemOptions {
-                boundary_weight: options.boundary_weight,
-                area_exponent: options.area_exponent,
-                placement: options.placement,
-                condition: options.solve_condition,
-                displacement_guard: options.displacement_guard,
-                ..QemOptions::default()
-            };
-            let mut qem = Qem::new(qo);
-            let outcome =
-                edge_collapse::run(&mut surface, &mut qem, &filters, &driver_options, observer);
-            (outcome, surface.output_triangles())
-        }
-        Method::VertexRemoval => {
-            let mut vr = VertexRemoval::new(
-                &surface,
-                VertexRemovalOptions {
-                    feature_angle: options.feature_angle,
-                    keep_corners: options.keep_corners,
-                    order_slack: options.order_slack,
-                    defer_neighbours: options.defer_neighbours,
-                    defer_below: options.defer_below,
-                    defer_bound: options.defer_bound,
-                    defer_slack: options.defer_slack,
-                    lock_boundary: options.lock_boundary,
-                    stop: driver_options.stop,
-                },
-            );
-            let outcome = vr.run(observer);
-            (outcome, vr.output_triangles())
-        }
-        Method::Melax => {
-            let mut melax = Melax::default();
-            let outcome = edge_collapse::run(
-                &mut surface,
-                &mut melax,
-                &filters,
-                &driver_options,
-                observer,
-            );
-            (outcome, surface.output_triangles())
-        }
-    };
+    let (outcome, triangles) = decimate(&mut surface, options, target, observer);
     let roots = if fit_possible {
         surface.vertex_roots()
     } else {
@@ -864,61 +754,21 @@ pub fn simplify_observed(
     });
     // The simplifier's structures go before the closest-point tree is built.
     drop(surface);
-    let facing_on = options.facing_repair
-        && outcome.collapses > 0
-        && matches!(options.method, Method::Qem | Method::Melax);
-    let fit_on = fit_possible && outcome.collapses > 0;
-    let tree = (facing_on || fit_on).then(|| Bvh::build_morton(&mesh.positions, &mesh.triangles));
-    let fitted = match &tree {
-        Some(tree) if fit_on => {
-            // Output vertices at a locked input vertex's point: the one descending
-            // from it, and the one it was "merged" into (itself, never moved; this
-            // also covers a locked duplicate of another input vertex).
-            let mut locked_out = vec![false; out.positions.len()];
-            if let Some(l) = options.locked_vertices.as_deref() {
-                for (v, &s) in vertex_source.iter().enumerate() {
-                    locked_out[v] = l.get(s as usize).copied().unwrap_or(false);
-                }
-                if let Some(m) = &merged_into {
-                    for (i, _) in l.iter().enumerate().filter(|(_, &b)| b) {
-                        if let Some(slot) = m.get(i).and_then(|&o| locked_out.get_mut(o as usize)) {
-                            *slot = true;
-                        }
-                    }
-                }
-            }
-            let fixed = |v: usize| locked_out[v];
-            // The repair's query starts (for the triangles as the swaps leave them),
-            // so that it can reuse the fit's answers.
-            let starts = |m: &Mesh| facing::query_starts(mesh, m, &vertex_source);
-            fit::fit(
-                mesh,
-                tree,
-                &mut out,
-                &fixed,
-                fit::FitParams {
-                    swaps: options.edge_swaps,
-                    ..fit::FitParams::new(options.fit_iterations, options.min_triangle_quality)
-                },
-                merged_into.as_deref(),
-                facing_on.then_some(&starts as &fit::StartsOf<'_>),
-            )
-        }
-        _ => (fit::FitStats::default(), Vec::new()),
+    let passes = Passes {
+        facing: options.facing_repair
+            && outcome.collapses > 0
+            && matches!(options.method, Method::Qem | Method::Melax),
+        fit: fit_possible && outcome.collapses > 0,
     };
-    let (fitted, known) = fitted;
-    let facing = match &tree {
-        Some(tree) if facing_on => Some(facing::repair(
-            mesh,
-            tree,
-            &mut out,
-            diag,
-            Some(&vertex_source),
-            Some(&known),
-        )),
-        _ => None,
-    };
-    drop(tree);
+    let (fitted, facing) = refine(
+        mesh,
+        options,
+        &mut out,
+        &vertex_source,
+        merged_into.as_deref(),
+        passes,
+        diag,
+    );
     let report = Report {
         method: options.method.name(),
         triangles_in: mesh.triangles.len(),
@@ -956,6 +806,208 @@ pub fn simplify_observed(
         report,
         vertex_source,
     })
+}
+
+/// A flat-shaded input (`flat`): simplified without its normals, the vertices they
+/// alone split made one, and the output re-shaded with its own facet normals.
+fn simplify_flat(
+    mesh: &Mesh,
+    flat: &flat::FlatShading,
+    options: &SimplifyOptions,
+    observer: &mut dyn Observer,
+    start: Instant,
+) -> Result<Simplified, SimplifyError> {
+    let mut inner = options.clone().with_reshade_flat(false);
+    if let Some(l) = options.locked_vertices.as_deref() {
+        inner.locked_vertices = Some(flat.merged_mask(l));
+    }
+    let s = simplify_observed(&flat.merged, &inner, observer)?;
+    let (out, vertex_source) = flat.reshade(mesh, s.mesh, &s.vertex_source);
+    let mut report = s.report;
+    report.vertices_in = mesh.positions.len();
+    report.vertices_out = out.positions.len();
+    report.flat_shading = true;
+    report.seconds = start.elapsed().as_secs_f64();
+    Ok(Simplified {
+        mesh: out,
+        report,
+        vertex_source,
+    })
+}
+
+/// Decimates `surface` toward `target` triangles with the method of `options`
+/// (edge collapse with the QEM or Melax cost and the filters the options ask for,
+/// or vertex removal); returns what happened and the surviving triangles.
+fn decimate(
+    surface: &mut Surface,
+    options: &SimplifyOptions,
+    target: usize,
+    observer: &mut dyn Observer,
+) -> (Outcome, TriangleLists) {
+    let diag = surface.diagonal();
+    let allow_non_edge = !options.preserve_topology && options.pair_threshold.is_some();
+    let extra_pairs = match options.pair_threshold {
+        Some(t) if allow_non_edge => close_pairs(surface, t.resolve(diag)),
+        _ => Vec::new(),
+    };
+    let driver_options = EdgeCollapseOptions {
+        limits: OperatorLimits {
+            allow_non_edge,
+            ..OperatorLimits::default()
+        },
+        stop: StopRule {
+            target_triangles: target,
+            max_error: options.max_error.map(|e| e.resolve(diag)),
+        },
+        extra_pairs,
+    };
+    let normal = options.max_normal_deviation.map(NormalDeviation::new);
+    let aspect = (options.min_triangle_quality > 0.0).then_some(AspectRatio {
+        min_quality: options.min_triangle_quality,
+    });
+    let lock = options.lock_boundary.then_some(LockBoundary);
+    let mut filters: Vec<&dyn Filter> = Vec::new();
+    if let Some(f) = &lock {
+        filters.push(f);
+    }
+    if let Some(f) = &normal {
+        filters.push(f);
+    }
+    if let Some(f) = &aspect {
+        filters.push(f);
+    }
+    match options.method {
+        Method::Cluster => unreachable!("clustering does not decimate a surface"),
+        Method::Qem => {
+            let qo = QemOptions {
+                boundary_weight: options.boundary_weight,
+                area_exponent: options.area_exponent,
+                placement: options.placement,
+                condition: options.solve_condition,
+                displacement_guard: options.displacement_guard,
+                ..QemOptions::default()
+            };
+            let mut qem = Qem::new(qo);
+            let outcome =
+                edge_collapse::run(surface, &mut qem, &filters, &driver_options, observer);
+            (outcome, surface.output_triangles())
+        }
+        Method::VertexRemoval => {
+            let mut vr = VertexRemoval::new(
+                surface,
+                VertexRemovalOptions {
+                    feature_angle: options.feature_angle,
+                    keep_corners: options.keep_corners,
+                    order_slack: options.order_slack,
+                    defer_neighbours: options.defer_neighbours,
+                    defer_below: options.defer_below,
+                    defer_bound: options.defer_bound,
+                    defer_slack: options.defer_slack,
+                    lock_boundary: options.lock_boundary,
+                    stop: driver_options.stop,
+                },
+            );
+            let outcome = vr.run(observer);
+            (outcome, vr.output_triangles())
+        }
+        Method::Melax => {
+            let mut melax = Melax::default();
+            let outcome =
+                edge_collapse::run(surface, &mut melax, &filters, &driver_options, observer);
+            (outcome, surface.output_triangles())
+        }
+    }
+}
+
+/// Which of the passes after decimation run.
+#[derive(Debug, Clone, Copy)]
+struct Passes {
+    /// The vertex fitting and edge swaps ([`fit`]).
+    fit: bool,
+    /// The orientation repair ([`facing`]).
+    facing: bool,
+}
+
+/// The passes after decimation on the output `out` of `mesh` (`vertex_source`: the
+/// input vertex of each output vertex; `merged_into`: the output vertex each input
+/// vertex was merged into, when tracked; `diag`: the input's diagonal): the vertex
+/// fitting, then the orientation repair, sharing one closest-point tree over the
+/// input. Returns what each did (the repair's `None` when it did not run).
+fn refine(
+    mesh: &Mesh,
+    options: &SimplifyOptions,
+    out: &mut Mesh,
+    vertex_source: &[u32],
+    merged_into: Option<&[u32]>,
+    passes: Passes,
+    diag: f64,
+) -> (fit::FitStats, Option<facing::FacingRepair>) {
+    let Passes {
+        fit: fit_on,
+        facing: facing_on,
+    } = passes;
+    let tree = (facing_on || fit_on).then(|| Bvh::build_morton(&mesh.positions, &mesh.triangles));
+    let fitted = match &tree {
+        Some(tree) if fit_on => {
+            let locked_out =
+                locked_outputs(options, out.positions.len(), vertex_source, merged_into);
+            let fixed = |v: usize| locked_out[v];
+            // The repair's query starts (for the triangles as the swaps leave them),
+            // so that it can reuse the fit's answers.
+            let starts = |m: &Mesh| facing::query_starts(mesh, m, vertex_source);
+            fit::fit(
+                mesh,
+                tree,
+                out,
+                &fixed,
+                fit::FitParams {
+                    swaps: options.edge_swaps,
+                    ..fit::FitParams::new(options.fit_iterations, options.min_triangle_quality)
+                },
+                merged_into,
+                facing_on.then_some(&starts as &fit::StartsOf<'_>),
+            )
+        }
+        _ => (fit::FitStats::default(), Vec::new()),
+    };
+    let (fitted, known) = fitted;
+    let facing = match &tree {
+        Some(tree) if facing_on => Some(facing::repair(
+            mesh,
+            tree,
+            out,
+            diag,
+            Some(vertex_source),
+            Some(&known),
+        )),
+        _ => None,
+    };
+    (fitted, facing)
+}
+
+/// Output vertices (`n` of them) at a locked input vertex's point: the one
+/// descending from it, and the one it was "merged" into (itself, never moved; this
+/// also covers a locked duplicate of another input vertex).
+fn locked_outputs(
+    options: &SimplifyOptions,
+    n: usize,
+    vertex_source: &[u32],
+    merged_into: Option<&[u32]>,
+) -> Vec<bool> {
+    let mut locked_out = vec![false; n];
+    if let Some(l) = options.locked_vertices.as_deref() {
+        for (v, &s) in vertex_source.iter().enumerate() {
+            locked_out[v] = l.get(s as usize).copied().unwrap_or(false);
+        }
+        if let Some(m) = merged_into {
+            for (i, _) in l.iter().enumerate().filter(|(_, &b)| b) {
+                if let Some(slot) = m.get(i).and_then(|&o| locked_out.get_mut(o as usize)) {
+                    *slot = true;
+                }
+            }
+        }
+    }
+    locked_out
 }
 
 /// [`Method::Cluster`] on a file streamed twice instead of a mesh in memory

@@ -19,6 +19,7 @@ pub mod off;
 pub mod ply;
 pub mod stl;
 pub mod stream;
+mod stream_base;
 #[cfg(test)]
 mod test_support;
 pub(crate) mod text;

@@ -42,7 +42,7 @@
 //! before each group. Numbers are printed in the shortest form that reads back as the
 //! same `f32`, so write → read is exact.
 
-use super::stream::{Sink, Source, StreamError};
+use super::stream_base::{Sink, Source, StreamError};
 use super::text::{parse_f32, parse_i64, show};
 use super::{FormatError, Location, Part, Scene, IDENTITY};
 use crate::mesh::{Mesh, VertexAttributes};

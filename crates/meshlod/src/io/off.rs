@@ -50,7 +50,27 @@ struct Header {
 /// declared vertices and faces.
 pub fn read(data: &[u8]) -> Result<Mesh, FormatError> {
     let mut lines = Lines::new(data);
-    let Some(first) = next_content(&mut lines) else {
+    let (header, nv, nf) = read_counts(&mut lines, data)?;
+    let vertices = read_vertices(&mut lines, header, nv)?;
+    let triangles = read_faces(&mut lines, nv, nf)?;
+    Ok(Mesh {
+        positions: vertices.positions,
+        triangles,
+        attributes: VertexAttributes {
+            normals: vertices.normals,
+            uv0: vertices.uv0,
+            colors: vertices.colors,
+            ..VertexAttributes::default()
+        },
+        groups: None,
+        group_names: Vec::new(),
+    })
+}
+
+/// The header keyword (when there is one) and the vertex and face counts, each
+/// checked against what the rest of the file (`data`) can hold.
+fn read_counts(lines: &mut Lines<'_>, data: &[u8]) -> Result<(Header, usize, usize), FormatError> {
+    let Some(first) = next_content(lines) else {
         return Err(FormatError::new(
             Location::File,
             "empty file: no OFF header or counts",
@@ -68,7 +88,7 @@ pub fn read(data: &[u8]) -> Result<Mesh, FormatError> {
                 ));
             }
             if rest.is_empty() {
-                match next_content(&mut lines) {
+                match next_content(lines) {
                     Some(l) => (header, tokens(l).collect::<Vec<_>>()),
                     None => {
                         return Err(FormatError::new(
@@ -107,7 +127,24 @@ pub fn read(data: &[u8]) -> Result<Mesh, FormatError> {
     if let Some(ne) = rest.first() {
         parse_i64(ne, ln, "the edge count")?;
     }
+    Ok((header, nv, nf))
+}
 
+/// The vertex streams an OFF file holds (those its header announces).
+struct Vertices {
+    positions: Vec<[f32; 3]>,
+    normals: Option<Vec<[f32; 3]>>,
+    colors: Option<Vec<[f32; 4]>>,
+    uv0: Option<Vec<[f32; 2]>>,
+}
+
+/// Reads `nv` vertex lines with the fields `header` announces; colours end on the
+/// 0–1 scale (a file with any component above 1 is taken as 0–255).
+fn read_vertices(
+    lines: &mut Lines<'_>,
+    header: Header,
+    nv: usize,
+) -> Result<Vertices, FormatError> {
     let mut positions = Vec::with_capacity(nv);
     let mut normals = header.normals.then(|| Vec::with_capacity(nv));
     let mut colors = header.colors.then(|| Vec::with_capacity(nv));
@@ -115,34 +152,14 @@ pub fn read(data: &[u8]) -> Result<Mesh, FormatError> {
     let base = 3 + if header.normals { 3 } else { 0 } + if header.texcoords { 2 } else { 0 };
     let mut values = [0f32; 16];
     for k in 0..nv {
-        let Some(line) = next_content(&mut lines) else {
+        let Some(line) = next_content(lines) else {
             return Err(FormatError::new(
                 Location::Line(lines.line_number()),
                 format!("file ends after {k} of {nv} vertices"),
             ));
         };
         let ln = lines.line_number();
-        let mut n = 0;
-        for t in tokens(line) {
-            let Some(slot) = values.get_mut(n) else {
-                if header.colors {
-                    return Err(FormatError::new(
-                        Location::Line(ln),
-                        format!("vertex {k} has more than {} numbers", values.len()),
-                    ));
-                }
-                break;
-            };
-            let v = parse_f32(t, ln, "a vertex field")?;
-            if !v.is_finite() {
-                return Err(FormatError::new(
-                    Location::Line(ln),
-                    format!("vertex {k} has a non-finite value '{}'", show(t)),
-                ));
-            }
-            *slot = v;
-            n += 1;
-        }
+        let n = vertex_numbers(line, ln, k, header, &mut values)?;
         let colour_len = n.saturating_sub(base);
         if n < base || (header.colors && !(3..=4).contains(&colour_len)) {
             let expected = if header.colors {
@@ -185,11 +202,55 @@ pub fn read(data: &[u8]) -> Result<Mesh, FormatError> {
         }
         scale_colours_255(colors);
     }
+    Ok(Vertices {
+        positions,
+        normals,
+        colors,
+        uv0,
+    })
+}
 
+/// Parses the numbers of vertex line `line` (vertex `k`, line `ln`) into `values`
+/// and returns how many there are: more than `values` holds is an error with
+/// colours and ignored without; a non-finite number is an error.
+fn vertex_numbers(
+    line: &[u8],
+    ln: u64,
+    k: usize,
+    header: Header,
+    values: &mut [f32; 16],
+) -> Result<usize, FormatError> {
+    let mut n = 0;
+    for t in tokens(line) {
+        let Some(slot) = values.get_mut(n) else {
+            if header.colors {
+                return Err(FormatError::new(
+                    Location::Line(ln),
+                    format!("vertex {k} has more than {} numbers", values.len()),
+                ));
+            }
+            break;
+        };
+        let v = parse_f32(t, ln, "a vertex field")?;
+        if !v.is_finite() {
+            return Err(FormatError::new(
+                Location::Line(ln),
+                format!("vertex {k} has a non-finite value '{}'", show(t)),
+            ));
+        }
+        *slot = v;
+        n += 1;
+    }
+    Ok(n)
+}
+
+/// Reads `nf` face lines over `nv` vertices, fan-triangulated around their first
+/// vertex (a face colour after the indices is ignored).
+fn read_faces(lines: &mut Lines<'_>, nv: usize, nf: usize) -> Result<Vec<[u32; 3]>, FormatError> {
     let mut triangles = Vec::with_capacity(nf);
     let mut corners: Vec<u32> = Vec::new();
     for k in 0..nf {
-        let Some(line) = next_content(&mut lines) else {
+        let Some(line) = next_content(lines) else {
             return Err(FormatError::new(
                 Location::Line(lines.line_number()),
                 format!("file ends after {k} of {nf} faces"),
@@ -236,18 +297,7 @@ pub fn read(data: &[u8]) -> Result<Mesh, FormatError> {
             }
         }
     }
-    Ok(Mesh {
-        positions,
-        triangles,
-        attributes: VertexAttributes {
-            normals,
-            uv0,
-            colors,
-            ..VertexAttributes::default()
-        },
-        groups: None,
-        group_names: Vec::new(),
-    })
+    Ok(triangles)
 }
 
 /// Parses the header keyword: `Some` for `[ST][C][N]OFF`, `None` for no keyword

@@ -47,7 +47,7 @@
 //! decimal that reads back to the same `f32`, so both encodings round-trip exactly
 //! (colours exactly when they are multiples of 1/255).
 
-use super::stream::{Sink, Source, StreamError};
+use super::stream_base::{Sink, Source, StreamError};
 use super::text::{self, Lines};
 use super::{max_elements, FormatError, Location};
 use crate::mesh::{Mesh, VertexAttributes};
@@ -434,118 +434,17 @@ fn parse_header_sized(data: &[u8], file_len: usize) -> Result<(Header, Lines<'_>
                 if encoding.is_some() {
                     return Err(header_error(n, "a second 'format' line"));
                 }
-                let (Some(f), Some(version), None) = (t.next(), t.next(), t.next()) else {
-                    return Err(header_error(
-                        n,
-                        "expected 'format ascii|binary_little_endian|binary_big_endian 1.0'",
-                    ));
-                };
-                encoding = Some(match f {
-                    b"ascii" => Encoding::Ascii,
-                    b"binary_little_endian" => Encoding::LittleEndian,
-                    b"binary_big_endian" => Encoding::BigEndian,
-                    _ => {
-                        return Err(header_error(
-                            n,
-                            format!(
-                                "unknown PLY format '{}' (expected ascii, binary_little_endian or binary_big_endian)",
-                                text::show(f)
-                            ),
-                        ))
-                    }
-                });
-                if version != b"1.0" && version != b"1" {
-                    return Err(header_error(
-                        n,
-                        format!(
-                            "unsupported PLY version '{}' (only 1.0 exists)",
-                            text::show(version)
-                        ),
-                    ));
-                }
+                encoding = Some(parse_format(t, n)?);
             }
             b"element" => {
-                let (Some(name), Some(count), None) = (t.next(), t.next(), t.next()) else {
-                    return Err(header_error(n, "expected 'element NAME COUNT'"));
-                };
-                // Capped after the header, when the size of a record is known.
-                let count = text::parse_count(count, n, "the element count", usize::MAX as u64)?;
-                if elements.iter().any(|e| e.name == name) {
-                    return Err(header_error(
-                        n,
-                        format!("a second element named '{}'", text::show(name)),
-                    ));
-                }
-                elements.push(Element {
-                    name: name.to_vec(),
-                    count,
-                    props: Vec::new(),
-                    line: n,
-                });
+                let element = parse_element(t, n, &elements)?;
+                elements.push(element);
             }
             b"property" => {
                 let Some(element) = elements.last_mut() else {
                     return Err(header_error(n, "'property' before any 'element'"));
                 };
-                let ty = |name: &[u8]| {
-                    Scalar::parse(name).ok_or_else(|| {
-                        header_error(
-                            n,
-                            format!(
-                                "unknown property type '{}' (expected char, uchar, short, ushort, int, uint, float, double or int8 ... float64)",
-                                text::show(name)
-                            ),
-                        )
-                    })
-                };
-                let (kind, name) = match (t.next(), t.next(), t.next(), t.next(), t.next()) {
-                    (Some(b"list"), Some(count), Some(item), Some(name), None) => {
-                        let count = ty(count)?;
-                        if count.is_float() {
-                            return Err(header_error(
-                                n,
-                                "the length type of a list property must be an integer type",
-                            ));
-                        }
-                        (
-                            Kind::List {
-                                count,
-                                item: ty(item)?,
-                            },
-                            name,
-                        )
-                    }
-                    (Some(b"list"), ..) => {
-                        return Err(header_error(
-                            n,
-                            "expected 'property list LENGTH_TYPE ITEM_TYPE NAME'",
-                        ))
-                    }
-                    (Some(scalar), Some(name), None, None, None) => {
-                        (Kind::Scalar(ty(scalar)?), name)
-                    }
-                    _ => {
-                        return Err(header_error(
-                            n,
-                            "expected 'property TYPE NAME' or 'property list LENGTH_TYPE ITEM_TYPE NAME'",
-                        ))
-                    }
-                };
-                if element.props.iter().any(|p| p.name == name) {
-                    return Err(header_error(
-                        n,
-                        format!(
-                            "element '{}' has a second property named '{}'",
-                            element.display_name(),
-                            text::show(name)
-                        ),
-                    ));
-                }
-                element.props.push(Property {
-                    name: name.to_vec(),
-                    kind,
-                    line: n,
-                });
+                parse_property(t, n, element)?;
             }
             b"end_header" => break,
             other => {
@@ -563,8 +462,155 @@ fn parse_header_sized(data: &[u8], file_len: usize) -> Result<(Header, Lines<'_>
     let encoding =
         encoding.ok_or_else(|| header_error(end_line, "the header has no 'format' line"))?;
     let body_start = lines.offset();
-    let body_len = file_len.saturating_sub(body_start);
-    for e in &elements {
+    check_counts(&elements, encoding, file_len.saturating_sub(body_start))?;
+    Ok((
+        Header {
+            encoding,
+            elements,
+            body_start,
+        },
+        lines,
+    ))
+}
+
+/// The rest of a `format` line (line `n`): the encoding, with version 1.0.
+fn parse_format<'a>(
+    mut t: impl Iterator<Item = &'a [u8]>,
+    n: u64,
+) -> Result<Encoding, FormatError> {
+    let (Some(f), Some(version), None) = (t.next(), t.next(), t.next()) else {
+        return Err(header_error(
+            n,
+            "expected 'format ascii|binary_little_endian|binary_big_endian 1.0'",
+        ));
+    };
+    let encoding = match f {
+        b"ascii" => Encoding::Ascii,
+        b"binary_little_endian" => Encoding::LittleEndian,
+        b"binary_big_endian" => Encoding::BigEndian,
+        _ => {
+            return Err(header_error(
+                n,
+                format!(
+                    "unknown PLY format '{}' (expected ascii, binary_little_endian or binary_big_endian)",
+                    text::show(f)
+                ),
+            ))
+        }
+    };
+    if version != b"1.0" && version != b"1" {
+        return Err(header_error(
+            n,
+            format!(
+                "unsupported PLY version '{}' (only 1.0 exists)",
+                text::show(version)
+            ),
+        ));
+    }
+    Ok(encoding)
+}
+
+/// The rest of an `element` line (line `n`): a new element, named unlike the
+/// `elements` before it.
+fn parse_element<'a>(
+    mut t: impl Iterator<Item = &'a [u8]>,
+    n: u64,
+    elements: &[Element],
+) -> Result<Element, FormatError> {
+    let (Some(name), Some(count), None) = (t.next(), t.next(), t.next()) else {
+        return Err(header_error(n, "expected 'element NAME COUNT'"));
+    };
+    // Capped after the header, when the size of a record is known.
+    let count = text::parse_count(count, n, "the element count", usize::MAX as u64)?;
+    if elements.iter().any(|e| e.name == name) {
+        return Err(header_error(
+            n,
+            format!("a second element named '{}'", text::show(name)),
+        ));
+    }
+    Ok(Element {
+        name: name.to_vec(),
+        count,
+        props: Vec::new(),
+        line: n,
+    })
+}
+
+/// The rest of a `property` line (line `n`), added to `element`: a scalar or a
+/// list (with an integer length type), named unlike the element's others.
+fn parse_property<'a>(
+    mut t: impl Iterator<Item = &'a [u8]>,
+    n: u64,
+    element: &mut Element,
+) -> Result<(), FormatError> {
+    let ty = |name: &[u8]| {
+        Scalar::parse(name).ok_or_else(|| {
+            header_error(
+                n,
+                format!(
+                    "unknown property type '{}' (expected char, uchar, short, ushort, int, uint, float, double or int8 ... float64)",
+                    text::show(name)
+                ),
+            )
+        })
+    };
+    let (kind, name) = match (t.next(), t.next(), t.next(), t.next(), t.next()) {
+        (Some(b"list"), Some(count), Some(item), Some(name), None) => {
+            let count = ty(count)?;
+            if count.is_float() {
+                return Err(header_error(
+                    n,
+                    "the length type of a list property must be an integer type",
+                ));
+            }
+            (
+                Kind::List {
+                    count,
+                    item: ty(item)?,
+                },
+                name,
+            )
+        }
+        (Some(b"list"), ..) => {
+            return Err(header_error(
+                n,
+                "expected 'property list LENGTH_TYPE ITEM_TYPE NAME'",
+            ))
+        }
+        (Some(scalar), Some(name), None, None, None) => (Kind::Scalar(ty(scalar)?), name),
+        _ => {
+            return Err(header_error(
+                n,
+                "expected 'property TYPE NAME' or 'property list LENGTH_TYPE ITEM_TYPE NAME'",
+            ))
+        }
+    };
+    if element.props.iter().any(|p| p.name == name) {
+        return Err(header_error(
+            n,
+            format!(
+                "element '{}' has a second property named '{}'",
+                element.display_name(),
+                text::show(name)
+            ),
+        ));
+    }
+    element.props.push(Property {
+        name: name.to_vec(),
+        kind,
+        line: n,
+    });
+    Ok(())
+}
+
+/// Refuses an element count larger than the `body_len` bytes after the header can
+/// hold in `encoding`.
+fn check_counts(
+    elements: &[Element],
+    encoding: Encoding,
+    body_len: usize,
+) -> Result<(), FormatError> {
+    for e in elements {
         if e.props.is_empty() {
             // Records without properties take no room and are never stored.
             continue;
@@ -586,14 +632,7 @@ fn parse_header_sized(data: &[u8], file_len: usize) -> Result<(Header, Lines<'_>
             ));
         }
     }
-    Ok((
-        Header {
-            encoding,
-            elements,
-            body_start,
-        },
-        lines,
-    ))
+    Ok(())
 }
 
 // ---------------------------------------------------------------------------------

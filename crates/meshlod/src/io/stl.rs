@@ -29,7 +29,7 @@
 //! geometry (unit length; zero for degenerate triangles). The binary header never
 //! starts with `solid`, so readers cannot mistake it for ASCII.
 
-use super::stream::{Sink, Source, StreamError};
+use super::stream_base::{Sink, Source, StreamError};
 use super::text::{self, Lines};
 use super::{max_elements, FormatError, Location};
 use crate::mesh::{Mesh, Weld};

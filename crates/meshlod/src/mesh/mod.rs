@@ -11,12 +11,14 @@
 //! Layout follows the data-oriented style of meshoptimizer: dense `u32` ids, flat
 //! `Vec`s, no per-element objects.
 
+mod distance;
 pub mod generate;
 pub mod stats;
 pub mod subdivide;
 pub mod topology;
 pub mod weld;
 
+pub use distance::Distance;
 pub use stats::{MeshStats, TopologyStats};
 pub use topology::{Topology, VertexKind};
 pub use weld::Weld;

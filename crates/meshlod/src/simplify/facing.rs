@@ -391,6 +391,32 @@ fn try_swap(
         return None;
     }
     // Input → output, for the input samples the old pair was nearest to.
+    let ok = input_stays_near(r, out_bvh, t, &old, &new, reach);
+    if !ok {
+        return None;
+    }
+    Some(Swap {
+        other: s,
+        new_t: [c, a, d],
+        new_other: [d, b, c],
+        away_old,
+        away_new,
+    })
+}
+
+/// Input → output: whether every input sample (vertices, centroids and edge
+/// midpoints of the input triangles near the quad) that the old pair (`old`) was
+/// nearest to stays within `max(before, reach)` of the new pair (`new`); `t` is
+/// the output triangle where the nearest-output queries start.
+fn input_stays_near(
+    r: &Repair,
+    out_bvh: &Bvh,
+    t: usize,
+    old: &[[V3; 3]; 2],
+    new: &[[V3; 3]; 2],
+    reach: f64,
+) -> bool {
+    let [[ca, cb, cc], [_, _, cd]] = *old;
     let mut lo = [f64::INFINITY; 3];
     let mut hi = [f64::NEG_INFINITY; 3];
     for q in [ca, cb, cc, cd] {
@@ -400,7 +426,7 @@ fn try_swap(
         }
     }
     let inside = |q: V3| (0..3).all(|i| q[i] >= lo[i] && q[i] <= hi[i]);
-    let ok = r.bvh.for_each_in_box(lo, hi, |id, tri| {
+    r.bvh.for_each_in_box(lo, hi, |id, tri| {
         // A vertex is shared by several input triangles: it is checked once, with
         // its owner (which overlaps the box too, since the vertex is inside it).
         let ids = r.input.triangles[id as usize];
@@ -449,16 +475,6 @@ fn try_swap(
             }
         }
         true
-    });
-    if !ok {
-        return None;
-    }
-    Some(Swap {
-        other: s,
-        new_t: [c, a, d],
-        new_other: [d, b, c],
-        away_old,
-        away_new,
     })
 }
 

@@ -413,6 +413,11 @@ pub(crate) type StartsOf<'a> = dyn Fn(&Mesh) -> Vec<Option<u32>> + 'a;
 /// [`facing::query_starts`]; asked for after the swaps, which change the
 /// triangles), also returns the nearest input points the orientation guard found
 /// for the triangles' centroids, for [`facing::repair`].
+///
+/// The steps, each its own function: the output's points ([`Points::new`]), the
+/// input samples on it ([`find_samples`]), the swaps ([`swap::swap_edges`]), each
+/// free point's nearest input point ([`nearest_inputs`]), the iterations
+/// ([`Fitter::iterate`]) and the orientation guard ([`Fitter::guard_orientation`]).
 pub(crate) fn fit(
     input: &Mesh,
     input_tree: &Bvh,
@@ -422,181 +427,209 @@ pub(crate) fn fit(
     merged_into: Option<&[u32]>,
     starts: Option<&StartsOf<'_>>,
 ) -> (FitStats, KnownNearest) {
-    let FitParams {
-        iterations,
-        min_quality,
-        out_weight,
-        quartic_weight,
-        swaps,
-    } = params;
     let mut stats = FitStats::default();
-    if (iterations == 0 && !swaps) || out.triangles.is_empty() || input.triangles.is_empty() {
+    if (params.iterations == 0 && !params.swaps)
+        || out.triangles.is_empty()
+        || input.triangles.is_empty()
+    {
         return (stats, Vec::new());
     }
     let weld = Weld::exact(&out.positions);
     let point_of = &weld.point_of;
-    let np = weld.representative.len();
-    let mut x: Vec<V3> = weld
-        .representative
-        .iter()
-        .map(|&v| f64v(out.positions[v as usize]))
-        .collect();
-    let mut tris: Vec<[u32; 3]> = out
-        .triangles
-        .iter()
-        .map(|t| t.map(|v| point_of[v as usize]))
-        .collect();
-    let mut conn = connectivity(&tris, np);
-
-    // Fixed points: borders and non-manifold edges, locked vertices, points no
-    // triangle uses.
-    let mut fixed: Vec<bool> = (0..np)
-        .map(|p| conn.border[p] || conn.fan(p).is_empty())
-        .collect();
-    for (v, &p) in point_of.iter().enumerate() {
-        if fixed_vertex(v) {
-            fixed[p as usize] = true;
-        }
-    }
+    let mut pts = Points::new(out, &weld, fixed_vertex);
     // Nothing to move: the swaps may still run.
-    let iterations = if fixed.iter().all(|&f| f) {
+    let iterations = if pts.fixed.iter().all(|&f| f) {
         0
     } else {
-        iterations
+        params.iterations
     };
-    if iterations == 0 && !swaps {
+    if iterations == 0 && !params.swaps {
         return (stats, Vec::new());
     }
+    let mut found = find_samples(input, out, &pts, point_of, merged_into, iterations > 0);
+    if params.swaps {
+        let ctx = swap::SwapContext {
+            input,
+            input_tree,
+            x: &pts.x,
+            groups: out.groups.as_deref(),
+            min_quality: params.min_quality,
+        };
+        let mut state = swap::SwapState {
+            tris: &mut pts.tris,
+            out_tris: &mut out.triangles,
+            conn: &mut pts.conn,
+            samples: &mut found.samples,
+            tri_start: &mut found.tri_start,
+            reference: &mut found.reference,
+        };
+        stats.swaps = swap::swap_edges(&ctx, &mut state);
+    }
+    let starts = starts.map(|f| f(out));
+    let starts = starts.as_deref();
+    let target = nearest_inputs(input_tree, &pts, &found.tri_at, iterations);
+    drop(std::mem::take(&mut found.tri_at));
 
-    // Samples: every used input vertex (a third of its triangles' area) and every
-    // input triangle's centroid (its area), each on its nearest output triangle:
-    // searched among the triangles of the output points its input vertices were
-    // merged into, then walked across edges while a neighbour is nearer; a
-    // closest-point query where no such point is known.
+    let Points {
+        mut x,
+        tris,
+        conn,
+        fixed,
+    } = pts;
+    let x0 = x.clone();
+    let fitter = Fitter {
+        input,
+        input_tree,
+        tris: &tris,
+        conn: &conn,
+        fixed: &fixed,
+        samples: &found.samples,
+        tri_start: &found.tri_start,
+        reference: &found.reference,
+        target: &target,
+        params,
+    };
+    let mut work = Work::new(tris.len(), x.len());
+    for _ in 0..iterations {
+        stats.iterations += 1;
+        if !fitter.iterate(&mut x, &mut work) {
+            break;
+        }
+    }
+    let known = fitter.guard_orientation(&mut x, &x0, starts);
+    stats.moved = (0..x.len()).filter(|&p| x[p] != x0[p]).count();
+
+    for (v, pos) in out.positions.iter_mut().enumerate() {
+        let p = point_of[v] as usize;
+        if x[p] != x0[p] {
+            *pos = x[p].map(|c| c as f32);
+        }
+    }
+    (stats, known)
+}
+
+/// The output as the fitting sees it: its points (distinct positions, welded
+/// exactly), its triangles over them, their connectivity and which points stay.
+struct Points {
+    /// Position of each point.
+    x: Vec<V3>,
+    /// The output's triangles over points.
+    tris: Vec<[u32; 3]>,
+    /// Fans and edge neighbours of `tris`.
+    conn: Connectivity,
+    /// Fixed points: borders and non-manifold edges, locked vertices, points no
+    /// triangle uses.
+    fixed: Vec<bool>,
+}
+
+impl Points {
+    /// The points of `out` (`weld`: its exact weld), fixed where `fixed_vertex`
+    /// says so for one of their vertices.
+    fn new(out: &Mesh, weld: &Weld, fixed_vertex: &dyn Fn(usize) -> bool) -> Self {
+        let point_of = &weld.point_of;
+        let np = weld.representative.len();
+        let x: Vec<V3> = weld
+            .representative
+            .iter()
+            .map(|&v| f64v(out.positions[v as usize]))
+            .collect();
+        let tris: Vec<[u32; 3]> = out
+            .triangles
+            .iter()
+            .map(|t| t.map(|v| point_of[v as usize]))
+            .collect();
+        let conn = connectivity(&tris, np);
+        let mut fixed: Vec<bool> = (0..np)
+            .map(|p| conn.border[p] || conn.fan(p).is_empty())
+            .collect();
+        for (v, &p) in point_of.iter().enumerate() {
+            if fixed_vertex(v) {
+                fixed[p as usize] = true;
+            }
+        }
+        Self {
+            x,
+            tris,
+            conn,
+            fixed,
+        }
+    }
+}
+
+/// The input samples on the output (step 1 of the module's rules), grouped by output
+/// triangle, with what the search found on the way.
+struct InputSamples {
+    /// The samples, grouped by output triangle (a stable counting sort):
+    /// `tri_start[t]..tri_start[t + 1]` are those of output triangle `t`.
+    samples: Vec<Sample>,
+    /// Where each output triangle's samples start in `samples` (one more entry
+    /// than triangles).
+    tri_start: Vec<u32>,
+    /// Per output triangle: the normal of the input triangle nearest its centroid
+    /// among those whose centroids it received (the orientation repair's test, see
+    /// the `facing` module), and that squared distance.
+    reference: Vec<(V3, f64)>,
+    /// Per output point: an input triangle of an input vertex merged into it
+    /// (`u32::MAX` for none), where its nearest-input query starts.
+    tri_at: Vec<u32>,
+}
+
+/// Samples: every used input vertex (a third of its triangles' area) and, with
+/// `with_centroids`, every input triangle's centroid (its area), each on its nearest
+/// output triangle: searched among the triangles of the output points its input
+/// vertices were merged into (`merged_into`, through `point_of`), then walked across
+/// edges while a neighbour is nearer; a closest-point query where no such point is
+/// known.
+fn find_samples(
+    input: &Mesh,
+    out: &Mesh,
+    pts: &Points,
+    point_of: &[u32],
+    merged_into: Option<&[u32]>,
+    with_centroids: bool,
+) -> InputSamples {
     let ip = &input.positions;
-    let mut vweight = vec![0.0f32; ip.len()];
-    // The output triangle of each sample, in the order they are found (vertices,
-    // then centroids; `u32::MAX` where none was found); the samples themselves are
-    // written afterwards straight into their groups.
-    let mut sample_tri: Vec<u32> = Vec::with_capacity(ip.len() + input.triangles.len());
-    // Per output triangle: the normal of the input triangle nearest its centroid
-    // among those whose centroids it received (the orientation repair's test, see
-    // the `facing` module), and that squared distance.
-    let mut reference: Vec<(V3, f64)> = vec![([0.0; 3], f64::INFINITY); tris.len()];
-    let mut out_tree: Option<Bvh> = None;
     let start_point = |i: u32| -> Option<u32> {
         let o = *merged_into?.get(i as usize)?;
         point_of.get(o as usize).copied()
     };
-    // Bounding spheres of the output triangles (centre, radius), for a cheap lower
-    // bound on a sample's distance before the exact one.
-    let spheres: Vec<(V3, f64)> = tris
-        .iter()
-        .map(|t| {
-            let c = t.map(|q| x[q as usize]);
-            let m: V3 = std::array::from_fn(|k| (c[0][k] + c[1][k] + c[2][k]) / 3.0);
-            let r = c.iter().map(|&v| norm(sub(v, m))).fold(0.0, f64::max);
-            (m, r)
-        })
-        .collect();
-    // Squared distance from `p` to output triangle `t` if it can beat `best`
-    // (infinity otherwise).
-    let tri_dist = |p: V3, t: u32, best: f64, x: &[V3]| -> f64 {
-        let (m, r) = spheres[t as usize];
-        let lb = (norm(sub(p, m)) - r).max(0.0);
-        if lb * lb >= best {
-            return f64::INFINITY;
-        }
-        let c = tris[t as usize].map(|q| x[q as usize]);
-        let (q, _) = closest_point(p, c[0], c[1], c[2]);
-        let d = sub(q, p);
-        dot(d, d)
-    };
-    // From `best` (a triangle and its squared distance), across edges while a
-    // neighbour is nearer.
-    let walk = |p: V3, mut best: (f64, u32), x: &[V3]| -> u32 {
-        for _ in 0..WALK_STEPS {
-            let mut next = best;
-            for &t in &conn.across[best.1 as usize] {
-                if t != u32::MAX {
-                    let d = tri_dist(p, t, next.0, x);
-                    if d < next.0 {
-                        next = (d, t);
-                    }
-                }
-            }
-            if next.1 == best.1 {
-                break;
-            }
-            best = next;
-        }
-        best.1
-    };
-    // Per output triangle: unit normal, inward unit normals of its edges in its
-    // plane and their offsets, to accept a sample's triangle at once when the
-    // sample projects inside it farther from every edge than from the plane (no
-    // neighbour that is not folded over it can then be nearer).
-    let inner: Vec<(V3, V3, [V3; 3], V3)> = tris
-        .iter()
-        .map(|t| {
-            let c = t.map(|q| x[q as usize]);
-            let nn = cross(sub(c[1], c[0]), sub(c[2], c[0]));
-            let l = norm(nn);
-            if l.is_nan() || l <= 0.0 {
-                return (c[0], [0.0; 3], [[0.0; 3]; 3], [f64::INFINITY; 3]);
-            }
-            let n = nn.map(|v| v / l);
-            let mut m = [[0.0; 3]; 3];
-            let mut o = [0.0; 3];
-            for k in 0..3 {
-                let e = cross(n, sub(c[(k + 1) % 3], c[k]));
-                let le = norm(e);
-                m[k] = e.map(|v| v / le);
-                o[k] = dot(m[k], c[k]);
-            }
-            (c[0], n, m, o)
-        })
-        .collect();
-    let accept = |p: V3, t: u32| -> bool {
-        let Some((c0, n, m, o)) = inner.get(t as usize) else {
-            return false;
-        };
-        let h = dot(*n, sub(p, *c0)).abs();
-        (0..3).all(|k| dot(m[k], p) - o[k] >= h)
-    };
-    let mut locate = |p: V3, starts: &[Option<u32>], x: &[V3]| -> Option<u32> {
-        let dist = |t: u32, best: f64| tri_dist(p, t, best, x);
-        for s in starts.iter().flatten() {
-            let s = *s as usize;
-            for &t in conn.fan(s) {
-                if accept(p, t) {
-                    return Some(t);
-                }
-            }
-        }
-        let mut best = (f64::INFINITY, u32::MAX);
-        for (i, s) in starts.iter().enumerate() {
-            let Some(s) = *s else { continue };
-            if starts[..i].contains(&Some(s)) {
-                continue;
-            }
-            let s = s as usize;
-            for &t in conn.fan(s) {
-                let d = dist(t, best.0);
-                if d < best.0 {
-                    best = (d, t);
-                }
-            }
-        }
-        if best.1 == u32::MAX {
-            let tree =
-                out_tree.get_or_insert_with(|| Bvh::build_morton(&out.positions, &out.triangles));
-            return tree.closest(p, None).map(|c| c.triangle);
-        }
-        Some(walk(p, best, x))
-    };
-    // Vertices first (their weights, then their triangles), then each centroid
-    // from the nearest of its corners' triangles.
+    let mut loc = Locator::new(out, &pts.tris, &pts.conn, &pts.x);
+    let (vweight, tri_at) = vertex_weights(input, pts.x.len(), &start_point);
+    // The output triangle of each sample, in the order they are found (vertices,
+    // then centroids; `u32::MAX` where none was found); the samples themselves are
+    // written afterwards straight into their groups.
+    let mut sample_tri: Vec<u32> = Vec::with_capacity(ip.len() + input.triangles.len());
+    let vtri = locate_vertices(&mut loc, ip, &vweight, &start_point, &mut sample_tri);
+    let mut reference: Vec<(V3, f64)> = vec![([0.0; 3], f64::INFINITY); pts.tris.len()];
+    // The swaps alone (no iterations) take the vertices only: with the centroids
+    // too, the means of the six benchmark meshes moved by 0.1% (geometric mean;
+    // the largest move 0.4%) for more time (`--swap` 1.05–1.57× the default's
+    // instead of 1.02–1.38×, measured side by side).
+    if with_centroids {
+        locate_centroids(&loc, input, &vtri, &mut sample_tri, &mut reference);
+    }
+    drop(vtri);
+    drop(loc);
+    let (tri_start, samples) =
+        group_samples(input, &vweight, &sample_tri, pts.tris.len(), with_centroids);
+    InputSamples {
+        samples,
+        tri_start,
+        reference,
+        tri_at,
+    }
+}
+
+/// Each input vertex's sample weight (a third of its triangles' area; 0 for one no
+/// proper triangle uses) and, per output point (`np` of them), an input triangle at
+/// a vertex merged into it (`start_point`), to start the point's own query.
+fn vertex_weights(
+    input: &Mesh,
+    np: usize,
+    start_point: &dyn Fn(u32) -> Option<u32>,
+) -> (Vec<f32>, Vec<u32>) {
+    let ip = &input.positions;
+    let mut vweight = vec![0.0f32; ip.len()];
     let mut tri_at = vec![u32::MAX; np];
     for (it, t) in input.triangles.iter().enumerate() {
         let c = t.map(|v| f64v(ip[v as usize]));
@@ -606,7 +639,6 @@ pub(crate) fn fit(
         }
         for &v in t {
             vweight[v as usize] += (area / 3.0) as f32;
-            // An input triangle at each output point, to start its own query.
             if let Some(q) = start_point(v) {
                 if tri_at[q as usize] == u32::MAX {
                     tri_at[q as usize] = it as u32;
@@ -614,15 +646,28 @@ pub(crate) fn fit(
             }
         }
     }
+    (vweight, tri_at)
+}
+
+/// The output triangle of each weighted input vertex (positions `ip`), pushed to
+/// `sample_tri` in vertex order; returns it per input vertex (`u32::MAX` for none),
+/// where the centroids' searches start.
+fn locate_vertices(
+    loc: &mut Locator<'_>,
+    ip: &[[f32; 3]],
+    vweight: &[f32],
+    start_point: &dyn Fn(u32) -> Option<u32>,
+    sample_tri: &mut Vec<u32>,
+) -> Vec<u32> {
     let mut vtri = vec![u32::MAX; ip.len()];
     let mut last = u32::MAX;
     for (i, &w) in vweight.iter().enumerate() {
         if w > 0.0 {
             let p = f64v(ip[i]);
-            let found = if accept(p, last) {
+            let found = if loc.accept(p, last) {
                 Some(last)
             } else {
-                locate(p, &[start_point(i as u32)], &x)
+                loc.locate(p, &[start_point(i as u32)])
             };
             sample_tri.push(found.unwrap_or(u32::MAX));
             if let Some(tri) = found {
@@ -631,31 +676,30 @@ pub(crate) fn fit(
             }
         }
     }
-    // An input triangle's normal, area and centroid, or `None` for a degenerate one.
-    let centroid_sample = |t: &[u32; 3]| -> Option<(V3, f64, V3)> {
-        let c = t.map(|v| f64v(ip[v as usize]));
-        let n = cross(sub(c[1], c[0]), sub(c[2], c[0]));
-        let area = norm(n) / 2.0;
-        if area.is_nan() || area <= 0.0 {
-            return None;
-        }
-        let centroid: V3 = std::array::from_fn(|k| (c[0][k] + c[1][k] + c[2][k]) / 3.0);
-        Some((n, area, centroid))
-    };
-    // The swaps alone (no iterations) take the vertices only: with the centroids
-    // too, the means of the six benchmark meshes moved by 0.1% (geometric mean;
-    // the largest move 0.4%) for more time (`--swap` 1.05–1.57× the default's
-    // instead of 1.02–1.38×, measured side by side).
-    let with_centroids = iterations > 0;
-    for t in input.triangles.iter().filter(|_| with_centroids) {
-        let Some((n, _, centroid)) = centroid_sample(t) else {
+    vtri
+}
+
+/// The output triangle of each input triangle's centroid, from the nearest of its
+/// corners' triangles (`vtri`), pushed to `sample_tri` in triangle order (none for
+/// a degenerate triangle); each centroid also offers its triangle's normal as its
+/// output triangle's `reference`.
+fn locate_centroids(
+    loc: &Locator<'_>,
+    input: &Mesh,
+    vtri: &[u32],
+    sample_tri: &mut Vec<u32>,
+    reference: &mut [(V3, f64)],
+) {
+    let ip = &input.positions;
+    for t in &input.triangles {
+        let Some((n, _, centroid)) = centroid_sample(ip, t) else {
             continue;
         };
         let mut best = (f64::INFINITY, u32::MAX);
         let first = t
             .iter()
             .map(|&v| vtri[v as usize])
-            .find(|&tri| tri != u32::MAX && accept(centroid, tri))
+            .find(|&tri| tri != u32::MAX && loc.accept(centroid, tri))
             .unwrap_or(u32::MAX);
         if first != u32::MAX {
             best = (0.0, first);
@@ -668,7 +712,7 @@ pub(crate) fn fit(
             if tri == u32::MAX || t[..k].iter().any(|&u| vtri[u as usize] == tri) {
                 continue;
             }
-            let d = tri_dist(centroid, tri, best.0, &x);
+            let d = loc.tri_dist(centroid, tri, best.0);
             if d < best.0 {
                 best = (d, tri);
             }
@@ -680,10 +724,10 @@ pub(crate) fn fit(
         let tri = if best.0 == 0.0 && best.1 == first {
             first
         } else {
-            walk(centroid, best, &x)
+            loc.walk(centroid, best)
         };
         sample_tri.push(tri);
-        let oc = tris[tri as usize].map(|q| x[q as usize]);
+        let oc = loc.tris[tri as usize].map(|q| loc.x[q as usize]);
         let d = sub(
             centroid,
             std::array::from_fn(|k| (oc[0][k] + oc[1][k] + oc[2][k]) / 3.0),
@@ -693,129 +737,388 @@ pub(crate) fn fit(
             *r = (n, dot(d, d));
         }
     }
-    drop(vtri);
-    drop(out_tree);
-    // Grouped by triangle (a counting sort, stable), so each triangle's corners
-    // are loaded once per pass: `tri_start[t]..tri_start[t + 1]` are the samples of
-    // output triangle `t`. The samples are made again in the order they were found
-    // and written to their slots.
-    let mut tri_start = vec![0u32; tris.len() + 1];
+}
+
+/// An input triangle's normal, area and centroid (positions `ip`), or `None` for a
+/// degenerate one.
+fn centroid_sample(ip: &[[f32; 3]], t: &[u32; 3]) -> Option<(V3, f64, V3)> {
+    let c = t.map(|v| f64v(ip[v as usize]));
+    let n = cross(sub(c[1], c[0]), sub(c[2], c[0]));
+    let area = norm(n) / 2.0;
+    if area.is_nan() || area <= 0.0 {
+        return None;
+    }
+    let centroid: V3 = std::array::from_fn(|k| (c[0][k] + c[1][k] + c[2][k]) / 3.0);
+    Some((n, area, centroid))
+}
+
+/// The samples grouped by output triangle (a counting sort, stable), so each
+/// triangle's corners are loaded once per pass: returns `tri_start` (the samples of
+/// output triangle `t` are `tri_start[t]..tri_start[t + 1]`; `ntris` triangles) and
+/// the samples, made again in the order they were found (`sample_tri`: vertices
+/// with a weight, then, `with_centroids`, centroids) and written to their slots.
+fn group_samples(
+    input: &Mesh,
+    vweight: &[f32],
+    sample_tri: &[u32],
+    ntris: usize,
+    with_centroids: bool,
+) -> (Vec<u32>, Vec<Sample>) {
+    let ip = &input.positions;
+    let mut tri_start = vec![0u32; ntris + 1];
     for &t in sample_tri.iter().filter(|&&t| t != u32::MAX) {
         tri_start[t as usize + 1] += 1;
     }
-    for i in 0..tris.len() {
+    for i in 0..ntris {
         tri_start[i + 1] += tri_start[i];
     }
-    let mut samples = vec![Sample::default(); tri_start[tris.len()] as usize];
-    {
-        let mut slot = tri_start.clone();
-        let made = vweight
-            .iter()
-            .enumerate()
-            .filter(|(_, &w)| w > 0.0)
-            .map(|(i, &w)| Sample {
-                p: ip[i],
-                weight: w,
-            })
-            .chain(
-                input
-                    .triangles
-                    .iter()
-                    .filter(|_| with_centroids)
-                    .filter_map(|t| {
-                        let (_, area, centroid) = centroid_sample(t)?;
-                        Some(Sample {
-                            p: centroid.map(|v| v as f32),
-                            weight: area as f32,
-                        })
-                    }),
-            );
-        for (sample, &t) in made.zip(&sample_tri) {
-            if t != u32::MAX {
-                let k = &mut slot[t as usize];
-                samples[*k as usize] = sample;
-                *k += 1;
-            }
+    let mut samples = vec![Sample::default(); tri_start[ntris] as usize];
+    let mut slot = tri_start.clone();
+    let made = vweight
+        .iter()
+        .enumerate()
+        .filter(|(_, &w)| w > 0.0)
+        .map(|(i, &w)| Sample {
+            p: ip[i],
+            weight: w,
+        })
+        .chain(
+            input
+                .triangles
+                .iter()
+                .filter(|_| with_centroids)
+                .filter_map(|t| {
+                    let (_, area, centroid) = centroid_sample(ip, t)?;
+                    Some(Sample {
+                        p: centroid.map(|v| v as f32),
+                        weight: area as f32,
+                    })
+                }),
+        );
+    for (sample, &t) in made.zip(sample_tri) {
+        if t != u32::MAX {
+            let k = &mut slot[t as usize];
+            samples[*k as usize] = sample;
+            *k += 1;
         }
     }
-    drop(sample_tri);
-    drop(vweight);
-    drop(spheres);
-    drop(inner);
-    if swaps {
-        let ctx = swap::SwapContext {
-            input,
-            input_tree,
-            x: &x,
-            groups: out.groups.as_deref(),
-            min_quality,
-        };
-        let mut state = swap::SwapState {
-            tris: &mut tris,
-            out_tris: &mut out.triangles,
-            conn: &mut conn,
-            samples: &mut samples,
-            tri_start: &mut tri_start,
-            reference: &mut reference,
-        };
-        stats.swaps = swap::swap_edges(&ctx, &mut state);
+    (tri_start, samples)
+}
+
+/// Finds the output triangle nearest a point, without a tree where it can: from
+/// candidate triangles, then across edges while a neighbour is nearer.
+struct Locator<'a> {
+    /// The output mesh (for the closest-point tree where no start is known).
+    out: &'a Mesh,
+    /// The output's triangles over points.
+    tris: &'a [[u32; 3]],
+    /// Their connectivity.
+    conn: &'a Connectivity,
+    /// The points' positions.
+    x: &'a [V3],
+    /// Bounding spheres of the output triangles (centre, radius), for a cheap lower
+    /// bound on a sample's distance before the exact one.
+    spheres: Vec<(V3, f64)>,
+    /// Per output triangle: a corner, unit normal, inward unit normals of its edges
+    /// in its plane and their offsets, to accept a sample's triangle at once when
+    /// the sample projects inside it farther from every edge than from the plane
+    /// (no neighbour that is not folded over it can then be nearer).
+    inner: Vec<(V3, V3, [V3; 3], V3)>,
+    /// A closest-point tree over the output, built when first needed.
+    out_tree: Option<Bvh>,
+}
+
+impl<'a> Locator<'a> {
+    fn new(out: &'a Mesh, tris: &'a [[u32; 3]], conn: &'a Connectivity, x: &'a [V3]) -> Self {
+        let spheres: Vec<(V3, f64)> = tris
+            .iter()
+            .map(|t| {
+                let c = t.map(|q| x[q as usize]);
+                let m: V3 = std::array::from_fn(|k| (c[0][k] + c[1][k] + c[2][k]) / 3.0);
+                let r = c.iter().map(|&v| norm(sub(v, m))).fold(0.0, f64::max);
+                (m, r)
+            })
+            .collect();
+        let inner: Vec<(V3, V3, [V3; 3], V3)> = tris
+            .iter()
+            .map(|t| {
+                let c = t.map(|q| x[q as usize]);
+                let nn = cross(sub(c[1], c[0]), sub(c[2], c[0]));
+                let l = norm(nn);
+                if l.is_nan() || l <= 0.0 {
+                    return (c[0], [0.0; 3], [[0.0; 3]; 3], [f64::INFINITY; 3]);
+                }
+                let n = nn.map(|v| v / l);
+                let mut m = [[0.0; 3]; 3];
+                let mut o = [0.0; 3];
+                for k in 0..3 {
+                    let e = cross(n, sub(c[(k + 1) % 3], c[k]));
+                    let le = norm(e);
+                    m[k] = e.map(|v| v / le);
+                    o[k] = dot(m[k], c[k]);
+                }
+                (c[0], n, m, o)
+            })
+            .collect();
+        Self {
+            out,
+            tris,
+            conn,
+            x,
+            spheres,
+            inner,
+            out_tree: None,
+        }
     }
-    let starts = starts.map(|f| f(out));
-    let starts = starts.as_deref();
-    // Each free point's nearest input point (the output → input samples), the
-    // query started at an input triangle of a vertex merged into it (else at the
-    // previous answer).
+
+    /// Squared distance from `p` to output triangle `t` if it can beat `best`
+    /// (infinity otherwise).
+    fn tri_dist(&self, p: V3, t: u32, best: f64) -> f64 {
+        let (m, r) = self.spheres[t as usize];
+        let lb = (norm(sub(p, m)) - r).max(0.0);
+        if lb * lb >= best {
+            return f64::INFINITY;
+        }
+        let c = self.tris[t as usize].map(|q| self.x[q as usize]);
+        let (q, _) = closest_point(p, c[0], c[1], c[2]);
+        let d = sub(q, p);
+        dot(d, d)
+    }
+
+    /// From `best` (a triangle and its squared distance), across edges while a
+    /// neighbour is nearer.
+    fn walk(&self, p: V3, mut best: (f64, u32)) -> u32 {
+        for _ in 0..WALK_STEPS {
+            let mut next = best;
+            for &t in &self.conn.across[best.1 as usize] {
+                if t != u32::MAX {
+                    let d = self.tri_dist(p, t, next.0);
+                    if d < next.0 {
+                        next = (d, t);
+                    }
+                }
+            }
+            if next.1 == best.1 {
+                break;
+            }
+            best = next;
+        }
+        best.1
+    }
+
+    /// Whether `p` projects inside output triangle `t` farther from each edge than
+    /// from its plane (false for `u32::MAX`).
+    fn accept(&self, p: V3, t: u32) -> bool {
+        let Some((c0, n, m, o)) = self.inner.get(t as usize) else {
+            return false;
+        };
+        let h = dot(*n, sub(p, *c0)).abs();
+        (0..3).all(|k| dot(m[k], p) - o[k] >= h)
+    }
+
+    /// The output triangle nearest `p`, searched from the fans of the points
+    /// `starts`: one that accepts it, else the nearest of them walked on; a
+    /// closest-point query over the output when no start is known.
+    fn locate(&mut self, p: V3, starts: &[Option<u32>]) -> Option<u32> {
+        for s in starts.iter().flatten() {
+            let s = *s as usize;
+            for &t in self.conn.fan(s) {
+                if self.accept(p, t) {
+                    return Some(t);
+                }
+            }
+        }
+        let mut best = (f64::INFINITY, u32::MAX);
+        for (i, s) in starts.iter().enumerate() {
+            let Some(s) = *s else { continue };
+            if starts[..i].contains(&Some(s)) {
+                continue;
+            }
+            let s = s as usize;
+            for &t in self.conn.fan(s) {
+                let d = self.tri_dist(p, t, best.0);
+                if d < best.0 {
+                    best = (d, t);
+                }
+            }
+        }
+        if best.1 == u32::MAX {
+            let out = self.out;
+            let tree = self
+                .out_tree
+                .get_or_insert_with(|| Bvh::build_morton(&out.positions, &out.triangles));
+            return tree.closest(p, None).map(|c| c.triangle);
+        }
+        Some(self.walk(p, best))
+    }
+}
+
+/// Each free point's nearest input point (the output → input samples; none when
+/// `iterations` is 0), the query started at an input triangle of a vertex merged
+/// into it (`tri_at`), else at the previous answer.
+fn nearest_inputs(input_tree: &Bvh, pts: &Points, tri_at: &[u32], iterations: u32) -> Vec<V3> {
+    let np = pts.x.len();
     let mut target: Vec<V3> = vec![[0.0; 3]; np];
     let mut hint = None;
     for p in 0..np {
-        if fixed[p] || iterations == 0 {
+        if pts.fixed[p] || iterations == 0 {
             continue;
         }
         if tri_at[p] != u32::MAX {
             hint = Some(tri_at[p]);
         }
-        if let Some(c) = input_tree.closest(x[p], hint) {
+        if let Some(c) = input_tree.closest(pts.x[p], hint) {
             hint = Some(c.triangle);
             target[p] = c.point;
         }
     }
-    drop(tri_at);
-    // The samples of output triangle `tri`.
-    let group = |tri: usize| &samples[tri_start[tri] as usize..tri_start[tri + 1] as usize];
+    target
+}
 
-    let x0 = x.clone();
-    // Per output triangle, the input triangles nearest its centroid and its edges'
-    // midpoints in the last iteration, where the next one's queries start. (Keeping
-    // them as the correspondences, as Hoppe et al. hold theirs fixed while solving,
-    // and projecting on them alone was measured: maxima up to 4% higher.)
-    let mut out_match = vec![[u32::MAX; 4]; tris.len()];
-    let mut normals: Vec<V3> = vec![[0.0; 3]; tris.len()];
-    let mut quad: Vec<Quadric> = vec![Quadric::ZERO; np];
-    let mut step: Vec<V3> = vec![[0.0; 3]; np];
-    let mut scale: Vec<f64> = vec![0.0; np];
-    let mut local_max: Vec<f64> = vec![0.0; np];
-    for _ in 0..iterations {
-        stats.iterations += 1;
-        quad.fill(Quadric::ZERO);
-        local_max.fill(0.0);
-        for (n, t) in normals.iter_mut().zip(&tris) {
+/// The fourth-power term's factor on a sample's weight, `1 + K d²/d_rms²`
+/// (`k_rms = K/d_rms²`).
+fn reweight(k_rms: f64, d: f64) -> f64 {
+    1.0 + k_rms * d * d
+}
+
+/// What the iterations read: the output's triangles, samples and guards' data.
+struct Fitter<'a> {
+    input: &'a Mesh,
+    input_tree: &'a Bvh,
+    /// The output's triangles over points.
+    tris: &'a [[u32; 3]],
+    conn: &'a Connectivity,
+    fixed: &'a [bool],
+    /// The input samples grouped by output triangle ([`InputSamples`]).
+    samples: &'a [Sample],
+    tri_start: &'a [u32],
+    reference: &'a [(V3, f64)],
+    /// Each free point's nearest input point ([`nearest_inputs`]).
+    target: &'a [V3],
+    params: FitParams,
+}
+
+/// The buffers of an iteration (per output triangle or point), kept between
+/// iterations.
+struct Work {
+    /// Per output triangle, the input triangles nearest its centroid and its
+    /// edges' midpoints in the last iteration, where the next one's queries start.
+    /// (Keeping them as the correspondences, as Hoppe et al. hold theirs fixed
+    /// while solving, and projecting on them alone was measured: maxima up to 4%
+    /// higher.)
+    out_match: Vec<[u32; 4]>,
+    /// Per output triangle, its (unnormalised) normal at the iteration's start.
+    normals: Vec<V3>,
+    /// Per point, the quadric of its samples' planes.
+    quad: Vec<Quadric>,
+    /// Per point, its step.
+    step: Vec<V3>,
+    /// Per point, the fraction of its step the guards let it take.
+    scale: Vec<f64>,
+    /// Per point, the largest distance around it (the guard's local maximum).
+    local_max: Vec<f64>,
+}
+
+impl Work {
+    fn new(ntris: usize, np: usize) -> Self {
+        Self {
+            out_match: vec![[u32::MAX; 4]; ntris],
+            normals: vec![[0.0; 3]; ntris],
+            quad: vec![Quadric::ZERO; np],
+            step: vec![[0.0; 3]; np],
+            scale: vec![0.0; np],
+            local_max: vec![0.0; np],
+        }
+    }
+}
+
+/// The output samples' pull toward their nearest input points (a query each),
+/// added to the points' quadrics.
+struct Pull<'a> {
+    input: &'a Mesh,
+    input_tree: &'a Bvh,
+    x: &'a [V3],
+    quad: &'a mut [Quadric],
+    k_rms: f64,
+    /// Where the next query starts when the sample has no answer of its own.
+    hint: Option<u32>,
+}
+
+impl Pull<'_> {
+    /// The sample at `q` (its triangle facing `facing`): its nearest input point
+    /// (the query started at `last`, its answer in the last iteration, else at the
+    /// hint), and its planes for `corners` (point, weight). Returns the input
+    /// triangle found (`u32::MAX` for none) and the distance (0 when it pulls
+    /// nothing).
+    fn pull(&mut self, q: V3, facing: V3, last: u32, corners: &[(usize, f64)]) -> (u32, f64) {
+        if last != u32::MAX {
+            self.hint = Some(last);
+        }
+        let Some(cl) = self.input_tree.closest(q, self.hint) else {
+            return (u32::MAX, 0.0);
+        };
+        self.hint = Some(cl.triangle);
+        let (point, triangle) = (cl.point, cl.triangle);
+        // A nearest input triangle facing the other way belongs to another
+        // sheet (the far side of a thin part, another part lying against this
+        // one): no correspondence.
+        if dot(facing, facing::face_normal(self.input, triangle)) < 0.0 {
+            return (triangle, 0.0);
+        }
+        let off = sub(q, point);
+        let d = norm(off);
+        if d > 0.0 {
+            let u = off.map(|v| v / d);
+            for &(v, w) in corners {
+                let w = w * reweight(self.k_rms, d);
+                self.quad[v].add(&Quadric::from_plane(u, d - dot(u, self.x[v]), w));
+            }
+        }
+        (triangle, d)
+    }
+}
+
+impl Fitter<'_> {
+    /// The samples of output triangle `tri`.
+    fn group(&self, tri: usize) -> &[Sample] {
+        &self.samples[self.tri_start[tri] as usize..self.tri_start[tri + 1] as usize]
+    }
+
+    /// One iteration (step 2 to 4 of the module's rules): moves the points `x`;
+    /// false when no point moved (the iterations stop).
+    fn iterate(&self, x: &mut [V3], work: &mut Work) -> bool {
+        work.quad.fill(Quadric::ZERO);
+        work.local_max.fill(0.0);
+        for (n, t) in work.normals.iter_mut().zip(self.tris) {
             let c = t.map(|q| x[q as usize]);
             *n = cross(sub(c[1], c[0]), sub(c[2], c[0]));
         }
-        // The fourth-power term, by iteratively reweighted least squares: the
-        // gradient of Σ w (d² + K/2 · d⁴/d_rms²) is that of least squares with each
-        // weight times 1 + K d²/d_rms² (d at the iteration's start). First the
-        // input samples' RMS distance (a pass of projections: a second quadric per
-        // point, to add once it is known, took 4% more memory at the peak).
+        let k_rms = self.quartic_factor(x);
+        self.gather_input(x, work, k_rms);
+        self.gather_output(x, work, k_rms);
+        self.solve_steps(x, work);
+        self.guard_hausdorff(x, work);
+        self.guard_shape(x, work);
+        apply_steps(x, work)
+    }
+
+    /// The fourth-power term, by iteratively reweighted least squares: the
+    /// gradient of Σ w (d² + K/2 · d⁴/d_rms²) is that of least squares with each
+    /// weight times 1 + K d²/d_rms² (d at the iteration's start). Returns
+    /// `K/d_rms²`, from the input samples' RMS distance (a pass of projections: a
+    /// second quadric per point, to add once it is known, took 4% more memory at
+    /// the peak); 0 for no term.
+    fn quartic_factor(&self, x: &[V3]) -> f64 {
+        let quartic_weight = self.params.quartic_weight;
         let mut k_rms = 0.0;
         if quartic_weight > 0.0 {
             let (mut sum_w, mut sum_wd2) = (0.0f64, 0.0f64);
-            for (tri, &t) in tris.iter().enumerate() {
-                if group(tri).is_empty() {
+            for (tri, &t) in self.tris.iter().enumerate() {
+                if self.group(tri).is_empty() {
                     continue;
                 }
                 let frame = Frame::new(&t.map(|q| x[q as usize]));
-                for s in group(tri) {
+                for s in self.group(tri) {
                     let d = Projected::new(&frame, f64v(s.p)).3;
                     sum_w += f64::from(s.weight);
                     sum_wd2 += f64::from(s.weight) * d * d;
@@ -827,23 +1130,28 @@ pub(crate) fn fit(
                 k_rms = quartic_weight / rms2;
             }
         }
-        let reweight = |d: f64| 1.0 + k_rms * d * d;
-        for (tri, &t) in tris.iter().enumerate() {
-            if group(tri).is_empty() {
+        k_rms
+    }
+
+    /// The input samples' planes, into their triangles' corners' quadrics, and
+    /// their distances into the corners' local maxima.
+    fn gather_input(&self, x: &[V3], work: &mut Work, k_rms: f64) {
+        for (tri, &t) in self.tris.iter().enumerate() {
+            if self.group(tri).is_empty() {
                 continue;
             }
             let c = t.map(|q| x[q as usize]);
-            let nn = normals[tri];
+            let nn = work.normals[tri];
             let l = norm(nn);
             let n = if l > 0.0 { nn.map(|v| v / l) } else { [0.0; 3] };
             let mut wb = [0.0f64; 3];
             let mut wbr = [0.0f64; 3];
             let mut dmax = 0.0f64;
             let frame = Frame::new(&c);
-            for s in group(tri) {
+            for s in self.group(tri) {
                 let (_, off, b, d) = Projected::new(&frame, f64v(s.p));
                 dmax = dmax.max(d);
-                let w = f64::from(s.weight) * reweight(d);
+                let w = f64::from(s.weight) * reweight(k_rms, d);
                 let r = dot(n, off);
                 for k in 0..3 {
                     wb[k] += w * b[k];
@@ -852,53 +1160,46 @@ pub(crate) fn fit(
             }
             for k in 0..3 {
                 let v = t[k] as usize;
-                local_max[v] = local_max[v].max(dmax);
+                work.local_max[v] = work.local_max[v].max(dmax);
                 // Σ w b (n·(y − x_v) + r)² over the samples, as the plane quadric of
                 // weight Σ w b whose offset is their weighted mean residual.
                 if wb[k] > 0.0 {
                     let d = wbr[k] / wb[k] - dot(n, x[v]);
-                    quad[v].add(&Quadric::from_plane(n, d, wb[k]));
+                    work.quad[v].add(&Quadric::from_plane(n, d, wb[k]));
                 }
             }
         }
-        // Output samples (output → input): each triangle's centroid and each
-        // edge's midpoint, pulled toward its nearest input point along the offset
-        // (the plane through that point perpendicular to it).
-        let mut hint = None;
-        // The sample at `q`: its nearest input point (the query started at
-        // `last`, its answer in the last iteration, else at `hint`), and its planes
-        // for `corners` (point, weight).
-        let mut pull =
-            |q: V3, facing: V3, last: u32, corners: &[(usize, f64)], hint: &mut Option<u32>| {
-                if last != u32::MAX {
-                    *hint = Some(last);
-                }
-                let Some(cl) = input_tree.closest(q, *hint) else {
-                    return (u32::MAX, 0.0);
-                };
-                *hint = Some(cl.triangle);
-                let (point, triangle) = (cl.point, cl.triangle);
-                // A nearest input triangle facing the other way belongs to another
-                // sheet (the far side of a thin part, another part lying against this
-                // one): no correspondence.
-                if dot(facing, facing::face_normal(input, triangle)) < 0.0 {
-                    return (triangle, 0.0);
-                }
-                let off = sub(q, point);
-                let d = norm(off);
-                if d > 0.0 {
-                    let u = off.map(|v| v / d);
-                    for &(v, w) in corners {
-                        let w = w * reweight(d);
-                        quad[v].add(&Quadric::from_plane(u, d - dot(u, x[v]), w));
-                    }
-                }
-                (triangle, d)
-            };
+    }
+
+    /// Output samples (output → input): each triangle's centroid and each edge's
+    /// midpoint, pulled toward its nearest input point along the offset (the plane
+    /// through that point perpendicular to it), into the corners' quadrics and
+    /// local maxima.
+    fn gather_output(&self, x: &[V3], work: &mut Work, k_rms: f64) {
+        let out_weight = self.params.out_weight;
+        let Work {
+            out_match,
+            normals,
+            quad,
+            local_max,
+            ..
+        } = work;
+        let mut pull = Pull {
+            input: self.input,
+            input_tree: self.input_tree,
+            x,
+            quad,
+            k_rms,
+            hint: None,
+        };
         let area = |tri: usize| norm(normals[tri]) / 2.0;
-        for (tri, &t) in tris.iter().enumerate() {
+        for (tri, &t) in self.tris.iter().enumerate() {
             let a = area(tri);
-            if out_weight <= 0.0 || t.iter().all(|&v| fixed[v as usize]) || a.is_nan() || a <= 0.0 {
+            if out_weight <= 0.0
+                || t.iter().all(|&v| self.fixed[v as usize])
+                || a.is_nan()
+                || a <= 0.0
+            {
                 continue;
             }
             let c = t.map(|q| x[q as usize]);
@@ -906,19 +1207,19 @@ pub(crate) fn fit(
             let m: V3 = std::array::from_fn(|j| (c[0][j] + c[1][j] + c[2][j]) / 3.0);
             let corners = t.map(|v| (v as usize, w / 3.0));
             let matched = &mut out_match[tri];
-            let (found, mut dmax) = pull(m, normals[tri], matched[0], &corners, &mut hint);
+            let (found, mut dmax) = pull.pull(m, normals[tri], matched[0], &corners);
             matched[0] = found;
             // Each edge once, from the triangle with the smaller index (or its only
             // one), weighted by both triangles' areas.
             for k in 0..3 {
-                let other = conn.across[tri][k] as usize;
+                let other = self.conn.across[tri][k] as usize;
                 // (The other triangle took it unless it was skipped: degenerate, or
                 // all its corners fixed, and then so are this edge's ends.)
                 if other < tri && other != u32::MAX as usize && area(other) > 0.0 {
                     continue;
                 }
                 let (a, b) = (t[k] as usize, t[(k + 1) % 3] as usize);
-                if fixed[a] && fixed[b] {
+                if self.fixed[a] && self.fixed[b] {
                     continue;
                 }
                 let mut we = w;
@@ -927,18 +1228,18 @@ pub(crate) fn fit(
                 }
                 let mid: V3 = std::array::from_fn(|j| 0.5 * (x[a][j] + x[b][j]));
                 if found != u32::MAX {
-                    hint = Some(found);
+                    pull.hint = Some(found);
                 }
                 let ends = [(a, we / 2.0), (b, we / 2.0)];
-                let facing = match conn.across[tri][k] {
+                let facing = match self.conn.across[tri][k] {
                     u32::MAX => normals[tri],
                     o => std::array::from_fn(|j| normals[tri][j] + normals[o as usize][j]),
                 };
-                let (edge_found, d) = pull(mid, facing, out_match[tri][k + 1], &ends, &mut hint);
+                let (edge_found, d) = pull.pull(mid, facing, out_match[tri][k + 1], &ends);
                 out_match[tri][k + 1] = edge_found;
                 dmax = dmax.max(d);
                 if other != u32::MAX as usize {
-                    for v in tris[other] {
+                    for v in self.tris[other] {
                         local_max[v as usize] = local_max[v as usize].max(d);
                     }
                 }
@@ -947,14 +1248,20 @@ pub(crate) fn fit(
                 local_max[v as usize] = local_max[v as usize].max(dmax);
             }
         }
-        for p in 0..np {
-            step[p] = [0.0; 3];
-            scale[p] = 0.0;
-            if fixed[p] {
+    }
+
+    /// Each free point's step: ¾ of the way to the minimiser of its quadric plus
+    /// the ridge (scale 1; 0 where nothing is to fit). Also adds the point's own
+    /// distance to its nearest input point to its local maximum.
+    fn solve_steps(&self, x: &[V3], work: &mut Work) {
+        for (p, &xp) in x.iter().enumerate() {
+            work.step[p] = [0.0; 3];
+            work.scale[p] = 0.0;
+            if self.fixed[p] {
                 continue;
             }
-            local_max[p] = local_max[p].max(norm(sub(x[p], target[p])));
-            let mut q = quad[p];
+            work.local_max[p] = work.local_max[p].max(norm(sub(xp, self.target[p])));
+            let mut q = work.quad[p];
             let tr = q.m[0] + q.m[4] + q.m[7];
             if tr.is_nan() || tr <= 0.0 {
                 continue;
@@ -963,69 +1270,81 @@ pub(crate) fn fit(
             for k in 0..3 {
                 let mut e = [0.0; 3];
                 e[k] = 1.0;
-                q.add(&Quadric::from_plane(e, -x[p][k], RIDGE * tr));
+                q.add(&Quadric::from_plane(e, -xp[k], RIDGE * tr));
             }
-            if let Some(y) = q.solve(x[p], 0.0) {
-                step[p] = sub(y, x[p]).map(|v| DAMPING * v);
-                scale[p] = 1.0;
+            if let Some(y) = q.solve(xp, 0.0) {
+                work.step[p] = sub(y, xp).map(|v| DAMPING * v);
+                work.scale[p] = 1.0;
             }
         }
-        // Guard (Hausdorff): halve the steps that carry a sample past the local
-        // maxima, then cancel them.
-        // Only the samples and points touching a step halved in the previous
-        // round can change their verdict: the others passed then and still do.
+    }
+
+    /// Whether a sample of output triangle `tri` would end up, after the scaled
+    /// steps, farther from its output point than its own distance and its corners'
+    /// local maxima.
+    ///
+    /// The projections of the step's start are made again (as in
+    /// [`Fitter::gather_input`]) rather than stored: 28 bytes a sample saved.
+    fn steps_too_far(&self, x: &[V3], work: &Work, tri: usize) -> bool {
+        let t = self.tris[tri];
+        if t.iter().all(|&v| work.scale[v as usize] == 0.0) {
+            return false;
+        }
+        let frame = Frame::new(&t.map(|q| x[q as usize]));
+        for s in self.group(tri) {
+            let (pr, ..) = Projected::new(&frame, f64v(s.p));
+            let mut e = pr.offset;
+            for (&v, &b) in t.iter().zip(&pr.bary) {
+                let v = v as usize;
+                let f = b * work.scale[v];
+                for (ej, sj) in e.iter_mut().zip(work.step[v]) {
+                    *ej += f * sj;
+                }
+            }
+            let limit = t
+                .iter()
+                .map(|&v| work.local_max[v as usize])
+                .fold(pr.dist, f64::max);
+            if dot(e, e) > limit * limit {
+                return true;
+            }
+        }
+        false
+    }
+
+    /// Guard (Hausdorff): halve the steps that carry a sample past the local
+    /// maxima, then cancel them.
+    /// Only the samples and points touching a step halved in the previous round can
+    /// change their verdict: the others passed then and still do.
+    fn guard_hausdorff(&self, x: &[V3], work: &mut Work) {
         let mut changed: Vec<u32> = Vec::new();
         for round in 0..=HALVINGS {
             let mut bad_points: Vec<u32> = Vec::new();
-            let test_triangle = |tri: usize, bad_points: &mut Vec<u32>| {
-                let t = tris[tri];
-                if t.iter().all(|&v| scale[v as usize] == 0.0) {
-                    return;
-                }
-                // The projections of the step's start, made again (as in the pass
-                // above) rather than stored: 28 bytes a sample saved.
-                let frame = Frame::new(&t.map(|q| x[q as usize]));
-                for s in group(tri) {
-                    let (pr, ..) = Projected::new(&frame, f64v(s.p));
-                    let mut e = pr.offset;
-                    for (&v, &b) in t.iter().zip(&pr.bary) {
-                        let v = v as usize;
-                        let f = b * scale[v];
-                        for (ej, sj) in e.iter_mut().zip(step[v]) {
-                            *ej += f * sj;
-                        }
-                    }
-                    let limit = t
-                        .iter()
-                        .map(|&v| local_max[v as usize])
-                        .fold(pr.dist, f64::max);
-                    if dot(e, e) > limit * limit {
-                        bad_points.extend_from_slice(&t);
-                        return;
-                    }
-                }
-            };
             if round == 0 {
-                for tri in 0..tris.len() {
-                    test_triangle(tri, &mut bad_points);
+                for tri in 0..self.tris.len() {
+                    if self.steps_too_far(x, work, tri) {
+                        bad_points.extend_from_slice(&self.tris[tri]);
+                    }
                 }
             } else {
                 let mut near: Vec<u32> = changed
                     .iter()
-                    .flat_map(|&p| conn.fan(p as usize).iter().copied())
+                    .flat_map(|&p| self.conn.fan(p as usize).iter().copied())
                     .collect();
                 near.sort_unstable();
                 near.dedup();
                 for &tri in &near {
-                    test_triangle(tri as usize, &mut bad_points);
+                    if self.steps_too_far(x, work, tri as usize) {
+                        bad_points.extend_from_slice(&self.tris[tri as usize]);
+                    }
                 }
             }
             // (Every point: a pass over the output's points is cheap, and an
             // unchanged one passes again.)
-            for p in 0..np {
-                if scale[p] > 0.0 {
-                    let to: V3 = std::array::from_fn(|j| x[p][j] + scale[p] * step[p][j]);
-                    if norm(sub(to, target[p])) > local_max[p] {
+            for (p, xp) in x.iter().enumerate() {
+                if work.scale[p] > 0.0 {
+                    let to: V3 = std::array::from_fn(|j| xp[j] + work.scale[p] * work.step[p][j]);
+                    if norm(sub(to, self.target[p])) > work.local_max[p] {
                         bad_points.push(p as u32);
                     }
                 }
@@ -1035,11 +1354,11 @@ pub(crate) fn fit(
             changed.clear();
             for &p in &bad_points {
                 let p = p as usize;
-                if scale[p] > 0.0 {
-                    scale[p] = if round == HALVINGS {
+                if work.scale[p] > 0.0 {
+                    work.scale[p] = if round == HALVINGS {
                         0.0
                     } else {
-                        scale[p] * 0.5
+                        work.scale[p] * 0.5
                     };
                     changed.push(p as u32);
                 }
@@ -1048,18 +1367,22 @@ pub(crate) fn fit(
                 break;
             }
         }
-        // Guard (shape): cancel steps that turn, squash or turn away a triangle.
+    }
+
+    /// Guard (shape): cancel steps that turn, squash or turn away a triangle.
+    fn guard_shape(&self, x: &[V3], work: &mut Work) {
+        let min_quality = self.params.min_quality;
         loop {
             let mut changed = false;
-            for (tri, t) in tris.iter().enumerate() {
-                if t.iter().all(|&v| scale[v as usize] == 0.0) {
+            for (tri, t) in self.tris.iter().enumerate() {
+                if t.iter().all(|&v| work.scale[v as usize] == 0.0) {
                     continue;
                 }
-                let n0 = normals[tri];
+                let n0 = work.normals[tri];
                 let c0 = t.map(|p| x[p as usize]);
                 let c1 = t.map(|p| {
                     let p = p as usize;
-                    std::array::from_fn(|j| x[p][j] + scale[p] * step[p][j])
+                    std::array::from_fn(|j| x[p][j] + work.scale[p] * work.step[p][j])
                 });
                 let n1 = cross(sub(c1[1], c1[0]), sub(c1[2], c1[0]));
                 let (l0, l1) = (norm(n0), norm(n1));
@@ -1067,12 +1390,12 @@ pub(crate) fn fit(
                 let q0 = triangle_quality(&c0, n0);
                 let q1 = triangle_quality(&c1, n1);
                 let squashed = q1 < 0.5 * q0 && q1 < min_quality;
-                let r = reference[tri].0;
+                let r = self.reference[tri].0;
                 let away = dot(n1, r) <= 0.0 && dot(n0, r) > 0.0;
                 if turned || squashed || away || l1.is_nan() || l1 <= 0.0 {
                     for &p in t {
-                        if scale[p as usize] != 0.0 {
-                            scale[p as usize] = 0.0;
+                        if work.scale[p as usize] != 0.0 {
+                            work.scale[p as usize] = 0.0;
                             changed = true;
                         }
                     }
@@ -1082,89 +1405,102 @@ pub(crate) fn fit(
                 break;
             }
         }
-        let mut any = false;
-        for p in 0..np {
-            if scale[p] > 0.0 {
-                for j in 0..3 {
-                    x[p][j] += scale[p] * step[p][j];
-                }
-                any = true;
-            }
-        }
-        if !any {
-            break;
-        }
     }
-    // Guard (orientation): a moved triangle that now faces away from the input
-    // triangle nearest its centroid (the orientation repair's test) and did not
-    // before puts its points back; then the triangles around those points are
-    // checked again.
-    // Tested on the positions as they will be stored (`f32`), at the centroid the
-    // repair computes and, where `starts` is given, with the repair's own hint, so
-    // that the repair can reuse the answers (`known`).
-    let mut known: KnownNearest = vec![None; tris.len()];
-    let stored = |p: u32, x: &[V3]| x[p as usize].map(|c| f64::from(c as f32));
-    // Whether the triangle with corners `c` faces away, and the answer to keep.
-    let faces_away =
-        |tri: u32, c: &[V3; 3], hint: &mut Option<u32>| -> (bool, Option<(V3, Closest)>) {
-            let n = cross(sub(c[1], c[0]), sub(c[2], c[0]));
-            let m = facing::centroid(c);
-            let start = match starts {
-                Some(st) => st.get(tri as usize).copied().flatten(),
-                None => *hint,
-            };
-            let Some(cl) = input_tree.closest(m, start) else {
-                return (false, None);
-            };
-            *hint = Some(cl.triangle);
-            let r = facing::face_normal(input, cl.triangle);
-            let away = dot(n, n) > 0.0 && dot(n, r) < 0.0;
-            (away, starts.is_some().then_some((m, cl)))
-        };
-    let mut check: Vec<u32> = (0..tris.len() as u32)
-        .filter(|&t| {
-            tris[t as usize]
-                .iter()
-                .any(|&p| x[p as usize] != x0[p as usize])
-        })
-        .collect();
-    while !check.is_empty() {
-        let mut back: Vec<u32> = Vec::new();
-        let mut hint = None;
-        for &tri in &check {
-            let t = tris[tri as usize];
-            if !t.iter().any(|&p| x[p as usize] != x0[p as usize]) {
-                continue;
-            }
-            // The answer kept is the one for where the triangle ends up.
-            let (away_now, answer) = faces_away(tri, &t.map(|p| stored(p, &x)), &mut hint);
-            known[tri as usize] = answer;
-            if away_now {
-                let (away_before, before) = faces_away(tri, &t.map(|p| stored(p, &x0)), &mut hint);
-                if !away_before {
-                    back.extend(t.iter().filter(|&&p| x[p as usize] != x0[p as usize]));
-                    known[tri as usize] = before;
-                }
-            }
-        }
-        check.clear();
-        for &p in &back {
-            x[p as usize] = x0[p as usize];
-            let p = p as usize;
-            check.extend_from_slice(conn.fan(p));
-        }
-        check.sort_unstable();
-        check.dedup();
-    }
-    stats.moved = (0..np).filter(|&p| x[p] != x0[p]).count();
 
-    for (v, pos) in out.positions.iter_mut().enumerate() {
-        let p = point_of[v] as usize;
-        if x[p] != x0[p] {
-            *pos = x[p].map(|c| c as f32);
+    /// Whether the triangle `tri` with corners `c` faces away from the input
+    /// triangle nearest its centroid (queried from `starts`' entry, else from
+    /// `hint`, which is updated), and the answer to keep (with `starts` only).
+    fn faces_away(
+        &self,
+        starts: Option<&[Option<u32>]>,
+        tri: u32,
+        c: &[V3; 3],
+        hint: &mut Option<u32>,
+    ) -> (bool, Option<(V3, Closest)>) {
+        let n = cross(sub(c[1], c[0]), sub(c[2], c[0]));
+        let m = facing::centroid(c);
+        let start = match starts {
+            Some(st) => st.get(tri as usize).copied().flatten(),
+            None => *hint,
+        };
+        let Some(cl) = self.input_tree.closest(m, start) else {
+            return (false, None);
+        };
+        *hint = Some(cl.triangle);
+        let r = facing::face_normal(self.input, cl.triangle);
+        let away = dot(n, n) > 0.0 && dot(n, r) < 0.0;
+        (away, starts.is_some().then_some((m, cl)))
+    }
+
+    /// Guard (orientation): a moved triangle that now faces away from the input
+    /// triangle nearest its centroid (the orientation repair's test) and did not
+    /// before (at `x0`) puts its points back; then the triangles around those
+    /// points are checked again.
+    /// Tested on the positions as they will be stored (`f32`), at the centroid the
+    /// repair computes and, where `starts` is given, with the repair's own hint, so
+    /// that the repair can reuse the answers (returned).
+    fn guard_orientation(
+        &self,
+        x: &mut [V3],
+        x0: &[V3],
+        starts: Option<&[Option<u32>]>,
+    ) -> KnownNearest {
+        let tris = self.tris;
+        let mut known: KnownNearest = vec![None; tris.len()];
+        let stored = |p: u32, x: &[V3]| x[p as usize].map(|c| f64::from(c as f32));
+        let mut check: Vec<u32> = (0..tris.len() as u32)
+            .filter(|&t| {
+                tris[t as usize]
+                    .iter()
+                    .any(|&p| x[p as usize] != x0[p as usize])
+            })
+            .collect();
+        while !check.is_empty() {
+            let mut back: Vec<u32> = Vec::new();
+            let mut hint = None;
+            for &tri in &check {
+                let t = tris[tri as usize];
+                if !t.iter().any(|&p| x[p as usize] != x0[p as usize]) {
+                    continue;
+                }
+                // The answer kept is the one for where the triangle ends up.
+                let (away_now, answer) =
+                    self.faces_away(starts, tri, &t.map(|p| stored(p, x)), &mut hint);
+                known[tri as usize] = answer;
+                if away_now {
+                    let (away_before, before) =
+                        self.faces_away(starts, tri, &t.map(|p| stored(p, x0)), &mut hint);
+                    if !away_before {
+                        back.extend(t.iter().filter(|&&p| x[p as usize] != x0[p as usize]));
+                        known[tri as usize] = before;
+                    }
+                }
+            }
+            check.clear();
+            for &p in &back {
+                x[p as usize] = x0[p as usize];
+                let p = p as usize;
+                check.extend_from_slice(self.conn.fan(p));
+            }
+            check.sort_unstable();
+            check.dedup();
+        }
+        known
+    }
+}
+
+/// Moves each point by its scaled step; false when none moved.
+fn apply_steps(x: &mut [V3], work: &Work) -> bool {
+    let mut any = false;
+    for (p, xp) in x.iter_mut().enumerate() {
+        if work.scale[p] > 0.0 {
+            for (c, s) in xp.iter_mut().zip(work.step[p]) {
+                *c += work.scale[p] * s;
+            }
+            any = true;
         }
     }
-    (stats, known)
+    any
 }
 
 #[cfg(test)]

@@ -69,9 +69,41 @@ pub(super) fn plan(
     for (i, &(_, c)) in orphans.iter().enumerate() {
         slot[c as usize] = i as u32;
     }
-    // The occupied 26-neighbours of the cell `key`, in a fixed order, until `f`
-    // returns true (then true).
-    let any_neighbour = |key: u64, f: &mut dyn FnMut(u32) -> bool| -> bool {
+    let m = orphans.len();
+    let mut search = Search {
+        around: Around {
+            table,
+            dims,
+            occupied: &occupied,
+        },
+        orphans,
+        slot,
+        depth: vec![0u32; m],
+        parent: vec![NONE; m],
+        queue: Vec::with_capacity(m),
+    };
+    search.depth_one(&covered);
+    let mut out = search.far_depth_one(&covered, &pos, FAR * cell, budget);
+    // Usually every orphan touches the output's cells: nothing to repair.
+    if search.queue.len() == m {
+        return out;
+    }
+    search.breadth_first();
+    search.deep(&mut out);
+    out
+}
+
+/// The occupied 26-neighbours of cells of a table.
+struct Around<'a> {
+    table: &'a CellTable,
+    dims: [u32; 3],
+    occupied: &'a dyn Fn(u32) -> bool,
+}
+
+impl Around<'_> {
+    /// The occupied 26-neighbours of the cell `key`, in a fixed order, until `f`
+    /// returns true (then true).
+    fn any(&self, key: u64, f: &mut dyn FnMut(u32) -> bool) -> bool {
         let c = unpack(key);
         for dx in -1i64..=1 {
             for dy in -1i64..=1 {
@@ -84,12 +116,12 @@ pub(super) fn plan(
                     let mut inside = true;
                     for k in 0..3 {
                         let x = i64::from(c[k]) + q[k];
-                        inside &= x >= 0 && x < i64::from(dims[k]);
+                        inside &= x >= 0 && x < i64::from(self.dims[k]);
                         d[k] = x.max(0) as u32;
                     }
                     if inside {
-                        if let Some(id) = table.find(pack(d)) {
-                            if occupied(id) && f(id) {
+                        if let Some(id) = self.table.find(pack(d)) {
+                            if (self.occupied)(id) && f(id) {
                                 return true;
                             }
                         }
@@ -98,117 +130,158 @@ pub(super) fn plan(
             }
         }
         false
-    };
-    let m = orphans.len();
-    let mut depth = vec![0u32; m];
-    let mut parent = vec![NONE; m];
-    let mut queue: Vec<u32> = Vec::with_capacity(m);
-    for (i, &(key, _)) in orphans.iter().enumerate() {
-        let mut first = NONE;
-        if any_neighbour(key, &mut |c| {
-            first = c;
-            covered(c)
-        }) {
-            depth[i] = 1;
-            parent[i] = first;
-            queue.push(i as u32);
-        }
     }
-    // Depth-1 orphans whose representative is farther than `FAR` cells from every
-    // covered neighbour's: the farthest `budget` of them.
-    let far = FAR * cell;
-    let dist = |p: [f32; 3], q: [f32; 3]| -> f64 {
-        (0..3)
-            .map(|k| (f64::from(p[k]) - f64::from(q[k])).powi(2))
-            .sum::<f64>()
-            .sqrt()
-    };
-    let mut near: Vec<(f64, [u32; 3])> = Vec::new();
-    if budget > 0 {
-        for &i in &queue {
-            let (key, c) = orphans[i as usize];
-            let p = pos(c);
-            // The first covered neighbour found bounds the nearest.
-            if dist(p, pos(parent[i as usize])) <= far {
-                continue;
-            }
-            // The two nearest covered neighbours (by representative).
-            let mut best = [(f64::INFINITY, NONE); 2];
-            any_neighbour(key, &mut |n| {
-                if covered(n) {
-                    let d = dist(p, pos(n));
-                    if d < best[0].0 {
-                        best[1] = best[0];
-                        best[0] = (d, n);
-                    } else if d < best[1].0 {
-                        best[1] = (d, n);
-                    }
-                }
-                false
-            });
-            if best[0].0 > far && best[1].1 != NONE {
-                near.push((best[0].0, [c, best[0].1, best[1].1]));
+}
+
+/// The breadth-first search over the orphan cells.
+struct Search<'a> {
+    around: Around<'a>,
+    /// The orphan cells (key, id), by key.
+    orphans: Vec<(u64, u32)>,
+    /// Index of each cell in `orphans` (NONE for the others).
+    slot: Vec<u32>,
+    /// Per orphan, its depth (0: not reached yet).
+    depth: Vec<u32>,
+    /// Per orphan, the cell it was reached from (NONE for none).
+    parent: Vec<u32>,
+    /// The orphans reached, in order.
+    queue: Vec<u32>,
+}
+
+impl Search<'_> {
+    /// The depth-1 orphans: those with a covered neighbour (the first occupied
+    /// neighbour looked at becomes the parent).
+    fn depth_one(&mut self, covered: &dyn Fn(u32) -> bool) {
+        for (i, &(key, _)) in self.orphans.iter().enumerate() {
+            let mut first = NONE;
+            if self.around.any(key, &mut |c| {
+                first = c;
+                covered(c)
+            }) {
+                self.depth[i] = 1;
+                self.parent[i] = first;
+                self.queue.push(i as u32);
             }
         }
-        // Farthest first; ties by the order of the keys (stable sort).
-        near.sort_by(|a, b| b.0.total_cmp(&a.0));
-        near.truncate(budget);
     }
-    let mut out: Vec<[u32; 3]> = near.into_iter().map(|(_, t)| t).collect();
-    // Usually every orphan touches the output's cells: nothing to repair.
-    if queue.len() == m {
-        return out;
-    }
-    let mut head = 0;
-    let mut next_root = 0;
-    loop {
-        while head < queue.len() {
-            let i = queue[head] as usize;
-            head += 1;
-            let (d, from) = (depth[i] + 1, orphans[i].1);
-            any_neighbour(orphans[i].0, &mut |c| {
-                let j = slot[c as usize];
-                if j != NONE && depth[j as usize] == 0 {
-                    depth[j as usize] = d;
-                    parent[j as usize] = from;
-                    queue.push(j);
-                }
-                false
-            });
-        }
-        // An orphan group out of reach of the output (a separate piece): from its
-        // smallest key.
-        while next_root < m && depth[next_root] != 0 {
-            next_root += 1;
-        }
-        if next_root == m {
-            break;
-        }
-        depth[next_root] = 1;
-        queue.push(next_root as u32);
-    }
-    for &i in &queue {
-        let i = i as usize;
-        if depth[i] < 2 {
-            continue;
-        }
-        let p = parent[i];
-        let pi = slot[p as usize] as usize;
-        let pp = if parent[pi] != NONE {
-            parent[pi]
-        } else {
-            // `p` is a separate piece's root: another of its orphan neighbours.
-            let mut other = NONE;
-            any_neighbour(orphans[pi].0, &mut |c| {
-                other = c;
-                c != orphans[i].1 && slot[c as usize] != NONE
-            });
-            if other == NONE || other == orphans[i].1 || slot[other as usize] == NONE {
-                continue;
-            }
-            other
+
+    /// Depth-1 orphans whose representative (`pos`) is farther than `far` from
+    /// every covered neighbour's: the farthest `budget` of them, each with its two
+    /// nearest covered neighbours.
+    fn far_depth_one(
+        &self,
+        covered: &dyn Fn(u32) -> bool,
+        pos: &dyn Fn(u32) -> [f32; 3],
+        far: f64,
+        budget: usize,
+    ) -> Vec<[u32; 3]> {
+        let dist = |p: [f32; 3], q: [f32; 3]| -> f64 {
+            (0..3)
+                .map(|k| (f64::from(p[k]) - f64::from(q[k])).powi(2))
+                .sum::<f64>()
+                .sqrt()
         };
-        out.push([orphans[i].1, p, pp]);
+        let mut near: Vec<(f64, [u32; 3])> = Vec::new();
+        if budget > 0 {
+            for &i in &self.queue {
+                let (key, c) = self.orphans[i as usize];
+                let p = pos(c);
+                // The first covered neighbour found bounds the nearest.
+                if dist(p, pos(self.parent[i as usize])) <= far {
+                    continue;
+                }
+                // The two nearest covered neighbours (by representative).
+                let mut best = [(f64::INFINITY, NONE); 2];
+                self.around.any(key, &mut |n| {
+                    if covered(n) {
+                        let d = dist(p, pos(n));
+                        if d < best[0].0 {
+                            best[1] = best[0];
+                            best[0] = (d, n);
+                        } else if d < best[1].0 {
+                            best[1] = (d, n);
+                        }
+                    }
+                    false
+                });
+                if best[0].0 > far && best[1].1 != NONE {
+                    near.push((best[0].0, [c, best[0].1, best[1].1]));
+                }
+            }
+            // Farthest first; ties by the order of the keys (stable sort).
+            near.sort_by(|a, b| b.0.total_cmp(&a.0));
+            near.truncate(budget);
+        }
+        near.into_iter().map(|(_, t)| t).collect()
     }
-    out
+
+    /// Reaches every orphan: breadth first from the depth-1 ones, then from the
+    /// smallest key of each orphan group out of reach of the output.
+    fn breadth_first(&mut self) {
+        let m = self.orphans.len();
+        let mut head = 0;
+        let mut next_root = 0;
+        loop {
+            while head < self.queue.len() {
+                let i = self.queue[head] as usize;
+                head += 1;
+                let (d, from) = (self.depth[i] + 1, self.orphans[i].1);
+                let (slot, depth, parent, queue) = (
+                    &self.slot,
+                    &mut self.depth,
+                    &mut self.parent,
+                    &mut self.queue,
+                );
+                self.around.any(self.orphans[i].0, &mut |c| {
+                    let j = slot[c as usize];
+                    if j != NONE && depth[j as usize] == 0 {
+                        depth[j as usize] = d;
+                        parent[j as usize] = from;
+                        queue.push(j);
+                    }
+                    false
+                });
+            }
+            // An orphan group out of reach of the output (a separate piece): from its
+            // smallest key.
+            while next_root < m && self.depth[next_root] != 0 {
+                next_root += 1;
+            }
+            if next_root == m {
+                break;
+            }
+            self.depth[next_root] = 1;
+            self.queue.push(next_root as u32);
+        }
+    }
+
+    /// One triangle per orphan at depth 2 or more: itself, its parent and its
+    /// parent's parent (for a separate piece's root, another of its orphan
+    /// neighbours), appended to `out` in the order reached.
+    fn deep(&self, out: &mut Vec<[u32; 3]>) {
+        let (orphans, slot, parent) = (&self.orphans, &self.slot, &self.parent);
+        for &i in &self.queue {
+            let i = i as usize;
+            if self.depth[i] < 2 {
+                continue;
+            }
+            let p = parent[i];
+            let pi = slot[p as usize] as usize;
+            let pp = if parent[pi] != NONE {
+                parent[pi]
+            } else {
+                // `p` is a separate piece's root: another of its orphan neighbours.
+                let mut other = NONE;
+                self.around.any(orphans[pi].0, &mut |c| {
+                    other = c;
+                    c != orphans[i].1 && slot[c as usize] != NONE
+                });
+                if other == NONE || other == orphans[i].1 || slot[other as usize] == NONE {
+                    continue;
+                }
+                other
+            };
+            out.push([orphans[i].1, p, pp]);
+        }
+    }
 }

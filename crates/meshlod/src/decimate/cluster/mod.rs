@@ -179,8 +179,7 @@ pub mod grid;
 use crate::io::stream;
 use crate::io::IoError;
 use crate::mesh::topology::UnionFind;
-use crate::mesh::{Mesh, Weld};
-use crate::simplify::Distance;
+use crate::mesh::{Distance, Mesh, Weld};
 use accumulate::{
     add_triangle, prepare_block, representative, Acc, Block, Prepared, BLOCK, MIN_WEIGHT,
 };
@@ -1495,18 +1494,55 @@ impl Pipeline for InMemory<'_> {
         } = staged;
         let mesh = self.mesh;
         let how = self.options.representative;
-        let factors = self.factors.as_deref();
-        let cells = table.len();
-        let mut accs = vec![Acc::default(); cells];
-        let grid = &grid;
-        let vcell_ref = &vcell;
-        // Workers own contiguous ranges of cells; each scans the triangles in order, so
-        // every cell adds its contributions in input order (as the streaming path).
-        // Triangles go in blocks: the planes of a block are computed in one tight loop
-        // (square roots and divisions overlap), then added to the cells in order.
         // The vertices some triangle uses, for the attribute sources below: only an
         // input with attributes (or a caller asking for the map) needs them.
         let want_sources = self.options.vertex_sources || !mesh.attributes.is_empty();
+        let (accs, used) = self.accumulate(&grid, &vcell, table.len(), want_sources);
+        let mut out = finish(
+            &grid,
+            &table,
+            &accs,
+            stage1,
+            how,
+            mesh.group_names.clone(),
+            false,
+        );
+        let source = attribute_sources(mesh, &mut out, &used, &vcell, want_sources);
+        if want_sources {
+            out.mesh.attributes = mesh.attributes.gather(&source);
+        }
+        out.stats.working_bytes += vcell.len() * 4 + self.keys.len() * 8 + self.small.len() * 4;
+        Clustered {
+            mesh: out.mesh,
+            vertex_source: source,
+            stats: out.stats,
+            triangles_in: mesh.triangles.len(),
+            vertices_in: mesh.positions.len(),
+            bbox_diagonal: 0.0,
+        }
+    }
+}
+
+impl InMemory<'_> {
+    /// Each of the `cells` cells' sums of its triangles' contributions (the vertices'
+    /// cells `vcell` on `grid`), and, `want_sources`, which vertices a triangle uses
+    /// (empty otherwise).
+    ///
+    /// Workers own contiguous ranges of cells; each scans the triangles in order, so
+    /// every cell adds its contributions in input order (as the streaming path).
+    /// Triangles go in blocks: the planes of a block are computed in one tight loop
+    /// (square roots and divisions overlap), then added to the cells in order.
+    fn accumulate(
+        &self,
+        grid: &Grid,
+        vcell: &[u32],
+        cells: usize,
+        want_sources: bool,
+    ) -> (Vec<Acc>, Vec<bool>) {
+        let mesh = self.mesh;
+        let how = self.options.representative;
+        let factors = self.factors.as_deref();
+        let mut accs = vec![Acc::default(); cells];
         let mut used = if want_sources {
             vec![false; mesh.positions.len()]
         } else {
@@ -1520,7 +1556,7 @@ impl Pipeline for InMemory<'_> {
             };
             let a = Accumulation {
                 mesh,
-                vcell: vcell_ref,
+                vcell,
                 origin: grid.origin,
                 how,
                 factors,
@@ -1538,7 +1574,7 @@ impl Pipeline for InMemory<'_> {
             // same operations, so the same sums bit for bit; see `crate::isa`).
             let a = Accumulation {
                 mesh,
-                vcell: vcell_ref,
+                vcell,
                 origin: grid.origin,
                 how,
                 factors: if how == Representative::Quadric {
@@ -1590,81 +1626,74 @@ impl Pipeline for InMemory<'_> {
                 *u = m.into_inner();
             }
         }
-        let mut out = finish(
-            grid,
-            &table,
-            &accs,
-            stage1,
-            how,
-            mesh.group_names.clone(),
-            false,
-        );
-        // Attributes: per output vertex the closest input vertex of its cells (that a
-        // triangle uses), beside the output's manifold counts. In parallel over ranges
-        // of vertices, merged in range order (ties keep the lowest index, as
-        // sequentially).
-        let n_out = out.mesh.positions.len();
-        let (outp, of_cell) = (&out.mesh.positions[..], &out.vertex_of_cell[..]);
-        let closest = |range: std::ops::Range<usize>| {
-            closest_sources(outp, of_cell, &used, &vcell, &mesh.positions, range)
-        };
-        let nv = vcell.len();
-        let parts = if shards > 2 && nv >= 2 * PAR_MIN {
-            (shards - 1).min(nv / PAR_MIN)
-        } else {
-            1
-        };
-        let per = nv.div_ceil(parts);
-        let topo = || edge_counts(&out.mesh.triangles, n_out);
-        let sources = || -> Vec<Vec<(f64, u32)>> {
-            if !want_sources {
-                return vec![Vec::new()];
-            }
-            if parts == 1 {
-                // One range: no pool.
-                let (used, vcell, points) = (&used[..], &vcell[..], &mesh.positions[..]);
-                return vec![crate::isa::dispatch!(closest_sources(
-                    outp,
-                    of_cell,
-                    used,
-                    vcell,
-                    points,
-                    0..nv
-                ))];
-            }
-            (0..parts)
-                .into_par_iter()
-                .map(|i| closest(i * per..((i + 1) * per).min(nv)))
-                .collect()
-        };
-        let (topo, mut partial) = if n < PAR_ACCUMULATE {
-            (topo(), sources())
-        } else {
-            rayon::join(topo, sources)
-        };
-        topo.record(&mut out.stats);
-        let mut best = partial.swap_remove(0);
-        for other in &partial {
-            for (b, o) in best.iter_mut().zip(other) {
-                if o.0 < b.0 {
-                    *b = *o;
-                }
-            }
+        (accs, used)
+    }
+}
+
+/// Attributes: per output vertex of `out` the closest input vertex of its cells
+/// (that a triangle uses, `used`; `vcell`: the input vertices' cells), or nothing
+/// without `want_sources`; beside it the output's manifold counts, recorded in
+/// `out.stats`. In parallel over ranges of vertices, merged in range order (ties
+/// keep the lowest index, as sequentially).
+fn attribute_sources(
+    mesh: &Mesh,
+    out: &mut Finished,
+    used: &[bool],
+    vcell: &[u32],
+    want_sources: bool,
+) -> Vec<u32> {
+    let shards = rayon::current_num_threads().clamp(1, 64);
+    let n = mesh.triangles.len();
+    let n_out = out.mesh.positions.len();
+    let (outp, of_cell) = (&out.mesh.positions[..], &out.vertex_of_cell[..]);
+    let closest = |range: std::ops::Range<usize>| {
+        closest_sources(outp, of_cell, used, vcell, &mesh.positions, range)
+    };
+    let nv = vcell.len();
+    let parts = if shards > 2 && nv >= 2 * PAR_MIN {
+        (shards - 1).min(nv / PAR_MIN)
+    } else {
+        1
+    };
+    let per = nv.div_ceil(parts);
+    let triangles = &out.mesh.triangles;
+    let topo = || edge_counts(triangles, n_out);
+    let sources = || -> Vec<Vec<(f64, u32)>> {
+        if !want_sources {
+            return vec![Vec::new()];
         }
-        let source: Vec<u32> = best.iter().map(|b| b.1).collect();
-        if want_sources {
-            out.mesh.attributes = mesh.attributes.gather(&source);
+        if parts == 1 {
+            // One range: no pool.
+            let points = &mesh.positions[..];
+            return vec![crate::isa::dispatch!(closest_sources(
+                outp,
+                of_cell,
+                used,
+                vcell,
+                points,
+                0..nv
+            ))];
         }
-        out.stats.working_bytes += vcell.len() * 4 + self.keys.len() * 8 + self.small.len() * 4;
-        Clustered {
-            mesh: out.mesh,
-            vertex_source: source,
-            stats: out.stats,
-            triangles_in: mesh.triangles.len(),
-            vertices_in: mesh.positions.len(),
-            bbox_diagonal: 0.0,
+        (0..parts)
+            .into_par_iter()
+            .map(|i| closest(i * per..((i + 1) * per).min(nv)))
+            .collect()
+    };
+    let (topo, mut partial) = if n < PAR_ACCUMULATE {
+        (topo(), sources())
+    } else {
+        rayon::join(topo, sources)
+    };
+    topo.record(&mut out.stats);
+    let mut best = partial.swap_remove(0);
+    for other in &partial {
+        for (b, o) in best.iter_mut().zip(other) {
+            if o.0 < b.0 {
+                *b = *o;
+            }
         }
     }
+    best.iter().map(|b| b.1).collect()
 }
 
 /// Per output vertex (`outp`) the closest of the input vertices `range` (`points`)
@@ -1982,24 +2011,7 @@ fn finish(
     group_names: Vec<String>,
     topology: bool,
 ) -> Finished {
-    let rep_of = |(i, a): (usize, &Acc)| rep_point(grid, table, how, i, a);
-    let reps: Vec<([f32; 3], Option<f64>)> =
-        if accs.len() < PAR_REPS || rayon::current_num_threads() == 1 {
-            // Sequentially (no pool), as the AVX2 build when the CPU has it.
-            // A plain loop: an iterator adapter's `fold` would stay out of line,
-            // outside the AVX2 build.
-            let mut reps = Vec::with_capacity(accs.len());
-            crate::isa::dispatch!(for (i, a) in accs.iter().enumerate() {
-                reps.push(rep_point(grid, table, how, i, a));
-            });
-            reps
-        } else {
-            accs.par_iter()
-                .with_min_len(1024)
-                .enumerate()
-                .map(rep_of)
-                .collect()
-        };
+    let reps = representatives(grid, table, accs, how);
     let max_error = if how == Representative::Quadric {
         reps.iter().filter_map(|r| r.1).fold(0.0f64, f64::max)
     } else {
@@ -2010,50 +2022,40 @@ fn finish(
     // Copies over the welded points can only appear when representatives of
     // distinct cells coincide (the cell triples are already distinct).
     let merged = weld.point_count() < positions.len();
-    let mut set = TripleSet::with_capacity(if merged { stage1.cells.len() } else { 0 });
-    let mut out = OutVertices {
-        of_point: vec![u32::MAX; weld.point_count()],
-        positions: Vec::new(),
-        reps: &positions,
-        weld: &weld,
-    };
     // Room for the coverage repair's few triangles as well: growing these vectors
     // afterwards would copy them whole.
     let room = stage1.cells.len() + stage1.cells.len() / coverage::FAR_BUDGET_PER + 16;
-    let mut triangles = Vec::with_capacity(room);
-    let mut groups = Vec::with_capacity(room);
+    let mut emit = Emit {
+        out: OutVertices {
+            of_point: vec![u32::MAX; weld.point_count()],
+            positions: Vec::new(),
+            reps: &positions,
+            weld: &weld,
+        },
+        // One length for the per-cell arrays: one bounds check per cell.
+        point_of: &weld.point_of[..positions.len()],
+        positions: &positions,
+        merged,
+        set: TripleSet::with_capacity(if merged { stage1.cells.len() } else { 0 }),
+        triangles: Vec::with_capacity(room),
+        groups: Vec::with_capacity(room),
+    };
     let mut flattened = 0;
     let mut duplicates = stage1.duplicates;
-    // One length for the per-cell arrays: one bounds check per cell.
-    let point_of = &weld.point_of[..positions.len()];
     for (c, &g) in stage1.cells.iter().zip(&stage1.groups) {
-        let p = c.map(|x| point_of[x as usize]);
-        if p[0] == p[1] || p[1] == p[2] || p[0] == p[2] {
-            flattened += 1;
-            continue;
+        match emit.triangle(*c, g) {
+            Emitted::Flat => flattened += 1,
+            Emitted::Duplicate => duplicates += 1,
+            Emitted::Added => {}
         }
-        let pos = c.map(|x| positions[x as usize]);
-        // Zero area is a zero cross product (the square root changes nothing).
-        let e = edge_cross(&pos);
-        if e[0] * e[0] + e[1] * e[1] + e[2] * e[2] == 0.0 {
-            flattened += 1;
-            continue;
-        }
-        if merged && !set.insert(p) {
-            duplicates += 1;
-            continue;
-        }
-        // Written out (`map` calls its closure out of line), in corner order.
-        let t = [out.vertex(p[0]), out.vertex(p[1]), out.vertex(p[2])];
-        triangles.push(t);
-        groups.push(g);
     }
+    let point_of = emit.point_of;
     // The output vertex of each cell and, in the same pass, the coverage repair's
     // orphans: occupied cells without one (parts whose triangles all collapsed).
     let mut vertex_of_cell: Vec<u32> = Vec::with_capacity(point_of.len());
     let mut orphans: Vec<u32> = Vec::new();
     for (c, (&p, a)) in point_of.iter().zip(accs).enumerate() {
-        let v = out.of_point[p as usize];
+        let v = emit.out.of_point[p as usize];
         if v == u32::MAX && a.w > 0.0 {
             orphans.push(c as u32);
         }
@@ -2067,39 +2069,16 @@ fn finish(
         |c| vertex_of_cell[c as usize] != u32::MAX,
         |c| positions[weld.representative[point_of[c as usize] as usize] as usize],
         grid.cell,
-        triangles.len() / coverage::FAR_BUDGET_PER,
+        emit.triangles.len() / coverage::FAR_BUDGET_PER,
     );
-    let mut coverage = 0;
-    for c in repair {
-        let p = c.map(|x| point_of[x as usize]);
-        if p[0] == p[1] || p[1] == p[2] || p[0] == p[2] {
-            continue;
-        }
-        let pos = c.map(|x| positions[x as usize]);
-        let e = edge_cross(&pos);
-        if e[0] * e[0] + e[1] * e[1] + e[2] * e[2] == 0.0 {
-            continue;
-        }
-        if merged && !set.insert(p) {
-            continue;
-        }
-        // Written out (`map` calls its closure out of line), in corner order.
-        let t = [out.vertex(p[0]), out.vertex(p[1]), out.vertex(p[2])];
-        triangles.push(t);
-        groups.push(0);
-        coverage += 1;
-        if !merged {
-            // One cell per point: only these three cells can have gained a vertex.
-            for x in c {
-                vertex_of_cell[x as usize] = out.of_point[point_of[x as usize] as usize];
-            }
-        }
-    }
-    if coverage > 0 && merged {
-        for (v, &p) in vertex_of_cell.iter_mut().zip(point_of) {
-            *v = out.of_point[p as usize];
-        }
-    }
+    let coverage = emit.coverage(repair, &mut vertex_of_cell);
+    let Emit {
+        out,
+        set,
+        triangles,
+        groups,
+        ..
+    } = emit;
     let working_bytes = table.bytes()
         + std::mem::size_of_val(accs)
         + reps.len() * 32
@@ -2139,6 +2118,110 @@ fn finish(
         },
         mesh,
         vertex_of_cell,
+    }
+}
+
+/// Each cell's representative (sums `accs`) and its error ([`rep_point`]), in
+/// parallel for many cells.
+fn representatives(
+    grid: &Grid,
+    table: &CellTable,
+    accs: &[Acc],
+    how: Representative,
+) -> Vec<([f32; 3], Option<f64>)> {
+    let rep_of = |(i, a): (usize, &Acc)| rep_point(grid, table, how, i, a);
+    if accs.len() < PAR_REPS || rayon::current_num_threads() == 1 {
+        // Sequentially (no pool), as the AVX2 build when the CPU has it.
+        // A plain loop: an iterator adapter's `fold` would stay out of line,
+        // outside the AVX2 build.
+        let mut reps = Vec::with_capacity(accs.len());
+        crate::isa::dispatch!(for (i, a) in accs.iter().enumerate() {
+            reps.push(rep_point(grid, table, how, i, a));
+        });
+        reps
+    } else {
+        accs.par_iter()
+            .with_min_len(1024)
+            .enumerate()
+            .map(rep_of)
+            .collect()
+    }
+}
+
+/// What [`Emit::triangle`] did with a cell triple.
+enum Emitted {
+    /// Dropped: two corners on one welded point, or zero area.
+    Flat,
+    /// Dropped: a copy of a triangle over the same welded points.
+    Duplicate,
+    /// Written out.
+    Added,
+}
+
+/// The output triangles over the cells' representatives, written as they come.
+struct Emit<'a> {
+    /// The output vertices, created on first use.
+    out: OutVertices<'a>,
+    /// The welded point of each cell.
+    point_of: &'a [u32],
+    /// The representative of each cell.
+    positions: &'a [[f32; 3]],
+    /// Whether representatives of distinct cells coincide (then copies over the
+    /// welded points are looked for in `set`).
+    merged: bool,
+    set: TripleSet,
+    triangles: Vec<[u32; 3]>,
+    groups: Vec<u32>,
+}
+
+impl Emit<'_> {
+    /// Writes the triangle over cells `c` (group `g`) unless it is flat or a copy.
+    #[inline]
+    fn triangle(&mut self, c: [u32; 3], g: u32) -> Emitted {
+        let p = c.map(|x| self.point_of[x as usize]);
+        if p[0] == p[1] || p[1] == p[2] || p[0] == p[2] {
+            return Emitted::Flat;
+        }
+        let pos = c.map(|x| self.positions[x as usize]);
+        // Zero area is a zero cross product (the square root changes nothing).
+        let e = edge_cross(&pos);
+        if e[0] * e[0] + e[1] * e[1] + e[2] * e[2] == 0.0 {
+            return Emitted::Flat;
+        }
+        if self.merged && !self.set.insert(p) {
+            return Emitted::Duplicate;
+        }
+        // Written out (`map` calls its closure out of line), in corner order.
+        let out = &mut self.out;
+        let t = [out.vertex(p[0]), out.vertex(p[1]), out.vertex(p[2])];
+        self.triangles.push(t);
+        self.groups.push(g);
+        Emitted::Added
+    }
+
+    /// Writes the coverage repair's triangles (`repair`, group 0) and keeps
+    /// `vertex_of_cell` up to date; returns how many were written.
+    fn coverage(&mut self, repair: Vec<[u32; 3]>, vertex_of_cell: &mut [u32]) -> usize {
+        let mut coverage = 0;
+        for c in repair {
+            if !matches!(self.triangle(c, 0), Emitted::Added) {
+                continue;
+            }
+            coverage += 1;
+            if !self.merged {
+                // One cell per point: only these three cells can have gained a vertex.
+                for x in c {
+                    vertex_of_cell[x as usize] =
+                        self.out.of_point[self.point_of[x as usize] as usize];
+                }
+            }
+        }
+        if coverage > 0 && self.merged {
+            for (v, &p) in vertex_of_cell.iter_mut().zip(self.point_of) {
+                *v = self.out.of_point[p as usize];
+            }
+        }
+        coverage
     }
 }
 

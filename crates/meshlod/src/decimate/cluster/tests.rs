@@ -1,3 +1,6 @@
+//! Tests of vertex clustering: in memory and streamed, the count search, the
+//! representatives, the clean-up and the coverage repair.
+
 use super::*;
 use crate::io::{write_mesh, WriteOptions};
 use crate::mesh::generate;

@@ -955,6 +955,46 @@ fn plan_key(plan: &Plan, order_by_bound: bool) -> f64 {
     }
 }
 
+/// How [`VertexRemoval::run`] orders the removals: the slack, and the deferred
+/// re-keying of a removal's neighbours up to the switch key.
+#[derive(Debug, Clone, Copy)]
+struct RunOrder {
+    /// The largest error a removal may have (infinite without a bound).
+    max_error: f64,
+    /// The order slack (1: the exact cheapest-first order).
+    base_slack: f64,
+    /// Deferred re-keying: a neighbour's previous key is divided by this; `None`
+    /// when not deferring (or no longer).
+    defer: Option<f64>,
+    /// Deferral stops (for good) at the first removal whose key reaches this.
+    defer_until: f64,
+    /// Bound a deferred neighbour's changed fan at once.
+    defer_bound: bool,
+    /// The slack while deferring.
+    slack: f64,
+}
+
+impl RunOrder {
+    /// The slack for a removal of key `key`: the deferring slack below the switch
+    /// key, the order slack from there on.
+    fn slack_at(&self, key: f64) -> f64 {
+        if key < self.defer_until {
+            self.slack
+        } else {
+            self.base_slack
+        }
+    }
+}
+
+/// Why [`VertexRemoval::run`] left its loop early.
+#[derive(Debug, Clone, Copy, Default)]
+struct RunStop {
+    /// Only removals that turn more triangles away from the input were left.
+    facing: bool,
+    /// The cheapest bound exceeded the maximum error.
+    over_error: bool,
+}
+
 /// The queue key bits of `slack ×` the key with bits `bits` (`bits` itself when
 /// `slack` is 1).
 fn slack_bits(bits: u32, slack: f64) -> u32 {
@@ -1376,8 +1416,6 @@ impl VertexRemoval {
         w_all: &mut [[f64; 2]],
         forbid: &mut [u64],
     ) -> Result<(), Refusal> {
-        let m = plan.q.len();
-        let n = r.normal;
         // Sub-polygons are copied `POLY_SPAN` bytes at a time (fixed-size copies,
         // no library calls); `polys` has room for that past its used length `used`.
         let mut buf = [0u8; 2 * POLY_SPAN];
@@ -1390,47 +1428,7 @@ impl VertexRemoval {
                 continue;
             }
             if len == 3 {
-                let c = [poly[0], poly[1], poly[2]];
-                let [a, b, cc] = c.map(|k| plan.pos[k as usize]);
-                let tn = cross(sub(b, a), sub(cc, a));
-                let l2 = dot(tn, tn);
-                // The smallest height, `|tn|` over the longest edge, at or below
-                // `height_eps` (compared squared).
-                let e2 = dot(sub(b, a), sub(b, a))
-                    .max(dot(sub(cc, a), sub(cc, a)))
-                    .max(dot(sub(cc, b), sub(cc, b)));
-                if l2 <= height_eps * height_eps * e2 {
-                    return Err(Refusal::Degenerate);
-                }
-                if dot(tn, n) <= 1e-6 * l2.sqrt() {
-                    return Err(Refusal::Flip);
-                }
-                // No flip against the input surface: the new triangle faces the side
-                // of the input triangles the fan stands for, and of those the old
-                // triangle on each shared loop edge stands for.
-                if dot(tn, plan.origin_sum) <= 0.0 {
-                    return Err(Refusal::Flip);
-                }
-                for e in 0..3 {
-                    let (x, y) = (c[e] as usize, c[(e + 1) % 3] as usize);
-                    let next = if x + 1 == m { 0 } else { x + 1 };
-                    if next == y && x < plan.origin.len() && dot(tn, plan.origin[x]) <= 0.0 {
-                        return Err(Refusal::Flip);
-                    }
-                }
-                let wedge = c.map(|k| {
-                    let k = k as usize;
-                    if k == r.first {
-                        plan.right[k]
-                    } else {
-                        plan.left[k]
-                    }
-                });
-                plan.out.push(NewTri {
-                    corner: c,
-                    wedge,
-                    group,
-                });
+                Self::push_triangle(plan, r, group, height_eps, [poly[0], poly[1], poly[2]])?;
                 continue;
             }
             // Best split line; existing edges are checked for the winner only (and
@@ -1441,65 +1439,7 @@ impl VertexRemoval {
             }
             let w = &w_all[..len];
             let best = loop {
-                let mut best: Option<(f64, usize, usize)> = None;
-                for i in 0..len {
-                    let pi = poly[i] as usize;
-                    let a = plan.pos[pi];
-                    let a2 = w[i];
-                    for j in i + 2..len {
-                        if i == 0 && j == len - 1 {
-                            continue;
-                        }
-                        let pj = poly[j] as usize;
-                        if forbid[i] & (1u64 << j) != 0 {
-                            continue;
-                        }
-                        let d = sub(plan.pos[pj], a);
-                        let ld2 = dot(d, d);
-                        // Split-plane normal `d × n`, unnormalised: its length is
-                        // |d| sin(d, n), the length of the projection of `d`.
-                        let d2 = [w[j][0] - a2[0], w[j][1] - a2[1]];
-                        let ls2 = d2[0] * d2[0] + d2[1] * d2[1];
-                        if ld2 == 0.0 || ls2 <= 1e-24 * ld2 {
-                            continue;
-                        }
-                        // Signed distances (times |d × n|) of the other points: those
-                        // strictly between i and j on one side, the rest on the other.
-                        let side = |k: usize| (w[k][0] - a2[0]) * d2[1] - (w[k][1] - a2[1]) * d2[0];
-                        // A line whose nearest point is below `lim` cannot beat the
-                        // best so far (`aspect2 <= best`, with a margin for rounding),
-                        // so the scan stops at the first such point; the scans start
-                        // next to the line's ends, where the nearest points usually are.
-                        let lim = best.map_or(0.0, |b| b.0 * (ls2 * ld2) * (1.0 - 1e-9));
-                        // Both halves strictly on their own side, at least `min` away.
-                        let mut min = f64::INFINITY;
-                        let valid = 'scan: {
-                            for k in i + 1..j {
-                                let s = side(k);
-                                if s <= 0.0 || s * s < lim {
-                                    break 'scan false;
-                                }
-                                min = min.min(s);
-                            }
-                            for k in (j + 1..len).chain(0..i) {
-                                let s = -side(k);
-                                if s <= 0.0 || s * s < lim {
-                                    break 'scan false;
-                                }
-                                min = min.min(s);
-                            }
-                            true
-                        };
-                        if !valid {
-                            continue;
-                        }
-                        // aspect = (min / |s|) / |d|, compared squared (no square roots).
-                        let aspect2 = min * min / (ls2 * ld2);
-                        if best.is_none_or(|b| aspect2 > b.0) {
-                            best = Some((aspect2, i, j));
-                        }
-                    }
-                }
+                let best = Self::best_split(plan, poly, w, forbid);
                 match best {
                     Some((_, i, j))
                         if checks && plan.adjacent(links, poly[i] as usize, poly[j] as usize) =>
@@ -1526,6 +1466,137 @@ impl VertexRemoval {
             plan.stack.push((o2 as u32, (len - j + i + 1) as u32));
         }
         Ok(())
+    }
+
+    /// A sub-polygon of three loop points `c` (region `r`, group `group`) becomes a
+    /// new triangle, unless it is degenerate (its smallest height at or below
+    /// `height_eps`) or flips against the region's normal or the input surface.
+    #[inline]
+    fn push_triangle(
+        plan: &mut Plan,
+        r: &Region,
+        group: u32,
+        height_eps: f64,
+        c: [u8; 3],
+    ) -> Result<(), Refusal> {
+        let m = plan.q.len();
+        let n = r.normal;
+        let [a, b, cc] = c.map(|k| plan.pos[k as usize]);
+        let tn = cross(sub(b, a), sub(cc, a));
+        let l2 = dot(tn, tn);
+        // The smallest height, `|tn|` over the longest edge, at or below
+        // `height_eps` (compared squared).
+        let e2 = dot(sub(b, a), sub(b, a))
+            .max(dot(sub(cc, a), sub(cc, a)))
+            .max(dot(sub(cc, b), sub(cc, b)));
+        if l2 <= height_eps * height_eps * e2 {
+            return Err(Refusal::Degenerate);
+        }
+        if dot(tn, n) <= 1e-6 * l2.sqrt() {
+            return Err(Refusal::Flip);
+        }
+        // No flip against the input surface: the new triangle faces the side
+        // of the input triangles the fan stands for, and of those the old
+        // triangle on each shared loop edge stands for.
+        if dot(tn, plan.origin_sum) <= 0.0 {
+            return Err(Refusal::Flip);
+        }
+        for e in 0..3 {
+            let (x, y) = (c[e] as usize, c[(e + 1) % 3] as usize);
+            let next = if x + 1 == m { 0 } else { x + 1 };
+            if next == y && x < plan.origin.len() && dot(tn, plan.origin[x]) <= 0.0 {
+                return Err(Refusal::Flip);
+            }
+        }
+        let wedge = c.map(|k| {
+            let k = k as usize;
+            if k == r.first {
+                plan.right[k]
+            } else {
+                plan.left[k]
+            }
+        });
+        plan.out.push(NewTri {
+            corner: c,
+            wedge,
+            group,
+        });
+        Ok(())
+    }
+
+    /// The best split line of sub-polygon `poly` (its points projected on the
+    /// region's plane: `w`): the diagonal `i`–`j` (not one `forbid` rules out) that
+    /// leaves both halves strictly on their own sides with the largest aspect
+    /// (smallest distance of a point to the line over the line's length), as
+    /// (aspect², i, j); `None` when no line splits it.
+    #[inline]
+    fn best_split(
+        plan: &Plan,
+        poly: &[u8],
+        w: &[[f64; 2]],
+        forbid: &[u64],
+    ) -> Option<(f64, usize, usize)> {
+        let len = poly.len();
+        let mut best: Option<(f64, usize, usize)> = None;
+        for i in 0..len {
+            let pi = poly[i] as usize;
+            let a = plan.pos[pi];
+            let a2 = w[i];
+            for j in i + 2..len {
+                if i == 0 && j == len - 1 {
+                    continue;
+                }
+                let pj = poly[j] as usize;
+                if forbid[i] & (1u64 << j) != 0 {
+                    continue;
+                }
+                let d = sub(plan.pos[pj], a);
+                let ld2 = dot(d, d);
+                // Split-plane normal `d × n`, unnormalised: its length is
+                // |d| sin(d, n), the length of the projection of `d`.
+                let d2 = [w[j][0] - a2[0], w[j][1] - a2[1]];
+                let ls2 = d2[0] * d2[0] + d2[1] * d2[1];
+                if ld2 == 0.0 || ls2 <= 1e-24 * ld2 {
+                    continue;
+                }
+                // Signed distances (times |d × n|) of the other points: those
+                // strictly between i and j on one side, the rest on the other.
+                let side = |k: usize| (w[k][0] - a2[0]) * d2[1] - (w[k][1] - a2[1]) * d2[0];
+                // A line whose nearest point is below `lim` cannot beat the
+                // best so far (`aspect2 <= best`, with a margin for rounding),
+                // so the scan stops at the first such point; the scans start
+                // next to the line's ends, where the nearest points usually are.
+                let lim = best.map_or(0.0, |b| b.0 * (ls2 * ld2) * (1.0 - 1e-9));
+                // Both halves strictly on their own side, at least `min` away.
+                let mut min = f64::INFINITY;
+                let valid = 'scan: {
+                    for k in i + 1..j {
+                        let s = side(k);
+                        if s <= 0.0 || s * s < lim {
+                            break 'scan false;
+                        }
+                        min = min.min(s);
+                    }
+                    for k in (j + 1..len).chain(0..i) {
+                        let s = -side(k);
+                        if s <= 0.0 || s * s < lim {
+                            break 'scan false;
+                        }
+                        min = min.min(s);
+                    }
+                    true
+                };
+                if !valid {
+                    continue;
+                }
+                // aspect = (min / |s|) / |d|, compared squared (no square roots).
+                let aspect2 = min * min / (ls2 * ld2);
+                if best.is_none_or(|b| aspect2 > b.0) {
+                    best = Some((aspect2, i, j));
+                }
+            }
+        }
+        best
     }
 
     /// The gap between the old fan and the new triangles `out[from..]` of region `r`:
@@ -2000,36 +2071,13 @@ impl VertexRemoval {
     /// removed; returns what happened (`collapses` counts removed points, `max_error`
     /// is the largest accumulated bound of a performed removal). The observer sees
     /// `started` and `progress`, not `collapsed` (a removal is not an edge collapse).
+    ///
+    /// Each queued entry is planned (`plan_removal`), removed, and its loop points
+    /// queued again (`requeue_neighbours`) in the order `RunOrder` describes.
     pub fn run(&mut self, observer: &mut dyn Observer) -> Outcome {
-        let stop = self.options.stop;
-        let target = stop.target_triangles;
-        let max_error = stop.max_error.unwrap_or(f64::INFINITY);
-        let base_slack = if self.options.order_slack > 1.0 {
-            self.options.order_slack
-        } else {
-            1.0
-        };
-        // Deferred re-keying divides a point's previous key by this.
-        let defer = self
-            .options
-            .defer_neighbours
-            .map(|p| if p > 1.0 { p } else { 1.0 });
-        // Deferral stops (for good) at the first removal whose key reaches this.
-        let defer_until = match (defer, self.options.defer_below) {
-            (Some(_), Some(f)) if f.is_nan() => 0.0,
-            (Some(_), Some(f)) => f.max(0.0) * self.diagonal,
-            _ => f64::INFINITY,
-        };
-        // (No key is below 0: the exact order from the start.)
-        let mut defer = if defer_until > 0.0 { defer } else { None };
-        let defer_bound = self.options.defer_bound;
-        // The slack while deferring (NaN or below 1 counts as 1).
-        let mut slack = match (defer, self.options.defer_slack) {
-            (Some(_), Some(s)) if s > 1.0 => s,
-            (Some(_), Some(_)) => 1.0,
-            _ => base_slack,
-        };
-        if defer.is_some() {
+        let target = self.options.stop.target_triangles;
+        let mut order = self.run_order();
+        if order.defer.is_some() {
             self.waiting = vec![false; self.pt.len()];
         }
         observer.started(self.live, target);
@@ -2054,8 +2102,7 @@ impl VertexRemoval {
             self.initial_pass(&mut heap);
         }
         let mut removed = 0usize;
-        let mut over_error = false;
-        let mut facing_stop = false;
+        let mut stopped = RunStop::default();
         let mut loop_pts = Vec::new();
         while self.live > target {
             let Some(item) = heap.pop() else { break };
@@ -2066,125 +2113,17 @@ impl VertexRemoval {
             // Only removals that turn more triangles away from the input are left:
             // stop rather than fold thin parts over.
             if item.b == 2 {
-                facing_stop = true;
+                stopped.facing = true;
                 break;
             }
-            if self.order_by_bound && f64::from(f32::from_bits(item.cost_bits)) > max_error {
-                over_error = true;
+            if self.order_by_bound && f64::from(f32::from_bits(item.cost_bits)) > order.max_error {
+                stopped.over_error = true;
                 break;
             }
-            // An entry with a lower bound (`b = 0`) is planned without the edge
-            // checks first: most such plans are queued again with their exact key
-            // (below) and invalidated by a neighbour's removal before they come
-            // back, so the checks are left to the plans that are used. An entry
-            // with its exact key (`b = 1`) has its plan kept.
-            let mode = if (item.b == 1 || item.b == 2) && self.restore_plan(v) {
-                Mode::Geometry
-            } else {
-                let mode = if item.b == 0 || item.b == 3 {
-                    Mode::Geometry
-                } else {
-                    Mode::Full
-                };
-                let planned = if item.b == 3 {
-                    // A deferred point (its fan changed since its key): bound it now,
-                    // and queue the bound unless it is still due.
-                    self.waiting[v as usize] = false;
-                    match self.evaluate_bound(v) {
-                        Ok(()) => {
-                            let bound = Item { b: 0, ..item }.with_cost(self.key());
-                            if heap
-                                .peek_cost_bits()
-                                .is_some_and(|c| slack_bits(c, base_slack) < bound.cost_bits)
-                            {
-                                self.queued[v as usize] = bound.cost_bits;
-                                heap.push(bound);
-                                continue;
-                            }
-                            self.evaluate_plan(false)
-                        }
-                        Err(r) => Err(r),
-                    }
-                } else {
-                    self.evaluate(v, mode)
-                };
-                if let Err(r) = planned {
-                    self.queued[v as usize] = 0;
-                    self.count(r);
-                    continue;
-                }
-                // The entry held a lower bound (or a key planned without the edge
-                // checks): if the exact key is above the next entry, queue it again
-                // with the exact key (best-first stays exact) and keep the plan.
-                let exact = Item { b: 1, ..item }.with_cost(self.key());
-                // (While deferring, the slack stops at the switch key: a removal
-                // that reaches it goes in the exact order.)
-                let s = if self.key() < defer_until {
-                    slack
-                } else {
-                    base_slack
-                };
-                if exact.cost_bits > item.cost_bits
-                    && heap
-                        .peek_cost_bits()
-                        .is_some_and(|c| slack_bits(c, s) < exact.cost_bits)
-                {
-                    self.keep_plan(v);
-                    self.queued[v as usize] = exact.cost_bits;
-                    heap.push(exact);
-                    continue;
-                }
-                mode
-            };
-            if mode == Mode::Geometry {
-                match self.deferred_checks_pass() {
-                    Ok(true) => {}
-                    Ok(false) => {
-                        // A planned diagonal is an edge already: plan with every
-                        // check, and compare the new key again.
-                        if let Err(r) = self.evaluate(v, Mode::Full) {
-                            self.queued[v as usize] = 0;
-                            self.count(r);
-                            continue;
-                        }
-                        let exact = Item { b: 1, ..item }.with_cost(self.key());
-                        let s = if self.key() < defer_until {
-                            slack
-                        } else {
-                            base_slack
-                        };
-                        if heap
-                            .peek_cost_bits()
-                            .is_some_and(|c| slack_bits(c, s) < exact.cost_bits)
-                        {
-                            self.keep_plan(v);
-                            heap.push(exact);
-                            continue;
-                        }
-                    }
-                    Err(r) => {
-                        self.queued[v as usize] = 0;
-                        self.count(r);
-                        continue;
-                    }
-                }
+            if !self.plan_removal(&mut heap, item, &order) {
+                continue;
             }
-            // A removal leaving more triangles facing away from the input goes after
-            // every removal that does not (queued again with a key above them all).
-            let extra = self.more_facing_away();
-            if extra > 0 {
-                let last =
-                    Item { b: 2, ..item }.with_cost(self.key() + self.facing_tier * extra as f64);
-                if last.cost_bits > item.cost_bits
-                    && heap.peek_cost_bits().is_some_and(|c| c < last.cost_bits)
-                {
-                    self.keep_plan(v);
-                    self.queued[v as usize] = Item::default().with_cost(self.key()).cost_bits;
-                    heap.push(last);
-                    continue;
-                }
-            }
-            if self.plan.cost > max_error {
+            if self.plan.cost > order.max_error {
                 self.rejections.max_error += 1;
                 self.queued[v as usize] = 0;
                 continue;
@@ -2198,86 +2137,291 @@ impl VertexRemoval {
             if removed % 4096 == 0 {
                 observer.progress(self.live);
             }
-            // Loop points whose bound is below every queued key are planned at once
-            // (they would be next out of the queue), sparing a second classification.
-            let next = heap.peek_cost_bits().unwrap_or(u32::MAX);
-            if defer.is_some() && removed_key >= defer_until {
-                // The coarse end: back to the exact order. Every point still behind
-                // a deferred key is evaluated now (its old entry made stale).
-                defer = None;
-                slack = base_slack;
-                for q in 0..self.pt.len() as u32 {
-                    let qi = q as usize;
-                    if self.waiting[qi] && self.pt[qi].len > 0 {
-                        self.waiting[qi] = false;
-                        self.pt[qi].version = self.pt[qi].version.wrapping_add(1);
-                        self.push(&mut heap, q, next);
-                    }
-                }
-            }
-            if let Some(defer) = defer {
-                for &q in &loop_pts {
-                    let qi = q as usize;
-                    let prov = slack_bits(self.queued[qi], 1.0 / defer);
-                    if prov < next || self.pt[qi].len == 0 {
-                        self.waiting[qi] = false;
-                        self.push(&mut heap, q, next);
-                    } else if defer_bound {
-                        // Bound the changed fan now; queue the larger of the bound
-                        // and the deferred key (planned when it comes out). Queued at
-                        // the deferred key, the point still waits: the switch to the
-                        // exact order evaluates it again.
-                        self.waiting[qi] = false;
-                        if let Err(r) = self.evaluate_bound(q) {
-                            self.queued[qi] = 0;
-                            self.count(r);
-                            continue;
-                        }
-                        let bound = Item::default().with_cost(self.key()).cost_bits;
-                        self.waiting[qi] = bound < prov;
-                        let cost_bits = bound.max(prov);
-                        if bound > prov {
-                            self.queued[qi] = bound;
-                        }
-                        heap.push(Item {
-                            a: q,
-                            b: 0,
-                            stamp: self.pt[qi].version,
-                            cost_bits,
-                        });
-                    } else {
-                        self.waiting[qi] = true;
-                        heap.push(Item {
-                            a: q,
-                            b: 3,
-                            stamp: self.pt[qi].version,
-                            cost_bits: prov,
-                        });
-                    }
-                }
-            } else {
-                for &q in &loop_pts {
-                    self.push(&mut heap, q, next);
-                }
-            }
+            self.requeue_neighbours(&mut heap, &loop_pts, removed_key, &mut order);
         }
         observer.progress(self.live);
         outcome.collapses = removed;
         outcome.rejections = self.rejections;
+        self.set_stop_reason(&mut outcome, removed, stopped);
+        outcome
+    }
+
+    /// The removal order of a run, from the options.
+    fn run_order(&self) -> RunOrder {
+        let max_error = self.options.stop.max_error.unwrap_or(f64::INFINITY);
+        let base_slack = if self.options.order_slack > 1.0 {
+            self.options.order_slack
+        } else {
+            1.0
+        };
+        let defer = self
+            .options
+            .defer_neighbours
+            .map(|p| if p > 1.0 { p } else { 1.0 });
+        let defer_until = match (defer, self.options.defer_below) {
+            (Some(_), Some(f)) if f.is_nan() => 0.0,
+            (Some(_), Some(f)) => f.max(0.0) * self.diagonal,
+            _ => f64::INFINITY,
+        };
+        // (No key is below 0: the exact order from the start.)
+        let defer = if defer_until > 0.0 { defer } else { None };
+        // The slack while deferring (NaN or below 1 counts as 1).
+        let slack = match (defer, self.options.defer_slack) {
+            (Some(_), Some(s)) if s > 1.0 => s,
+            (Some(_), Some(_)) => 1.0,
+            _ => base_slack,
+        };
+        RunOrder {
+            max_error,
+            base_slack,
+            defer,
+            defer_until,
+            defer_bound: self.options.defer_bound,
+            slack,
+        }
+    }
+
+    /// Plans the removal of the point of the popped `item` (into `self.plan`):
+    /// true when it is to be removed now, false when it was refused or queued again
+    /// (with its exact key, or behind every removal that turns no triangle away).
+    fn plan_removal(&mut self, heap: &mut Heap, item: Item, order: &RunOrder) -> bool {
+        let Some(mode) = self.plan_popped(heap, item, order) else {
+            return false;
+        };
+        if mode == Mode::Geometry && !self.recheck_edges(heap, item, order) {
+            return false;
+        }
+        !self.requeue_if_facing_away(heap, item)
+    }
+
+    /// The plan of the popped `item`'s point: restored (an exact key), or made, and
+    /// queued again with its exact key when that is above the next entry (beyond
+    /// the slack). Returns how it was planned, or `None` when it was refused or
+    /// queued again.
+    fn plan_popped(&mut self, heap: &mut Heap, item: Item, order: &RunOrder) -> Option<Mode> {
+        let v = item.a;
+        // An entry with a lower bound (`b = 0`) is planned without the edge
+        // checks first: most such plans are queued again with their exact key
+        // (below) and invalidated by a neighbour's removal before they come
+        // back, so the checks are left to the plans that are used. An entry
+        // with its exact key (`b = 1`) has its plan kept.
+        if (item.b == 1 || item.b == 2) && self.restore_plan(v) {
+            return Some(Mode::Geometry);
+        }
+        let mode = if item.b == 0 || item.b == 3 {
+            Mode::Geometry
+        } else {
+            Mode::Full
+        };
+        let planned = if item.b == 3 {
+            // A deferred point (its fan changed since its key): bound it now,
+            // and queue the bound unless it is still due.
+            self.waiting[v as usize] = false;
+            match self.evaluate_bound(v) {
+                Ok(()) => {
+                    let bound = Item { b: 0, ..item }.with_cost(self.key());
+                    if heap
+                        .peek_cost_bits()
+                        .is_some_and(|c| slack_bits(c, order.base_slack) < bound.cost_bits)
+                    {
+                        self.queued[v as usize] = bound.cost_bits;
+                        heap.push(bound);
+                        return None;
+                    }
+                    self.evaluate_plan(false)
+                }
+                Err(r) => Err(r),
+            }
+        } else {
+            self.evaluate(v, mode)
+        };
+        if let Err(r) = planned {
+            self.queued[v as usize] = 0;
+            self.count(r);
+            return None;
+        }
+        // The entry held a lower bound (or a key planned without the edge
+        // checks): if the exact key is above the next entry, queue it again
+        // with the exact key (best-first stays exact) and keep the plan.
+        let exact = Item { b: 1, ..item }.with_cost(self.key());
+        // (While deferring, the slack stops at the switch key: a removal
+        // that reaches it goes in the exact order.)
+        let s = order.slack_at(self.key());
+        if exact.cost_bits > item.cost_bits
+            && heap
+                .peek_cost_bits()
+                .is_some_and(|c| slack_bits(c, s) < exact.cost_bits)
+        {
+            self.keep_plan(v);
+            self.queued[v as usize] = exact.cost_bits;
+            heap.push(exact);
+            return None;
+        }
+        Some(mode)
+    }
+
+    /// The edge checks left out of a plan made without them: true when they pass,
+    /// or when the plan made again with every check still comes first; false when
+    /// it was refused or queued again with its new key.
+    fn recheck_edges(&mut self, heap: &mut Heap, item: Item, order: &RunOrder) -> bool {
+        let v = item.a;
+        match self.deferred_checks_pass() {
+            Ok(true) => true,
+            Ok(false) => {
+                // A planned diagonal is an edge already: plan with every
+                // check, and compare the new key again.
+                if let Err(r) = self.evaluate(v, Mode::Full) {
+                    self.queued[v as usize] = 0;
+                    self.count(r);
+                    return false;
+                }
+                let exact = Item { b: 1, ..item }.with_cost(self.key());
+                let s = order.slack_at(self.key());
+                if heap
+                    .peek_cost_bits()
+                    .is_some_and(|c| slack_bits(c, s) < exact.cost_bits)
+                {
+                    self.keep_plan(v);
+                    heap.push(exact);
+                    return false;
+                }
+                true
+            }
+            Err(r) => {
+                self.queued[v as usize] = 0;
+                self.count(r);
+                false
+            }
+        }
+    }
+
+    /// A removal leaving more triangles facing away from the input goes after
+    /// every removal that does not (queued again with a key above them all):
+    /// true when the plan was queued so.
+    fn requeue_if_facing_away(&mut self, heap: &mut Heap, item: Item) -> bool {
+        let v = item.a;
+        let extra = self.more_facing_away();
+        if extra > 0 {
+            let last =
+                Item { b: 2, ..item }.with_cost(self.key() + self.facing_tier * extra as f64);
+            if last.cost_bits > item.cost_bits
+                && heap.peek_cost_bits().is_some_and(|c| c < last.cost_bits)
+            {
+                self.keep_plan(v);
+                self.queued[v as usize] = Item::default().with_cost(self.key()).cost_bits;
+                heap.push(last);
+                return true;
+            }
+        }
+        false
+    }
+
+    /// Queues the loop points of a removal (key `removed_key`) again: those whose
+    /// bound is below every queued key are planned at once (they would be next out
+    /// of the queue), sparing a second classification; while deferring, the others
+    /// wait at their deferred key. The first removal at the switch key ends the
+    /// deferral (`order` changes).
+    fn requeue_neighbours(
+        &mut self,
+        heap: &mut Heap,
+        loop_pts: &[u32],
+        removed_key: f64,
+        order: &mut RunOrder,
+    ) {
+        let next = heap.peek_cost_bits().unwrap_or(u32::MAX);
+        if order.defer.is_some() && removed_key >= order.defer_until {
+            // The coarse end: back to the exact order. Every point still behind
+            // a deferred key is evaluated now (its old entry made stale).
+            order.defer = None;
+            order.slack = order.base_slack;
+            for q in 0..self.pt.len() as u32 {
+                let qi = q as usize;
+                if self.waiting[qi] && self.pt[qi].len > 0 {
+                    self.waiting[qi] = false;
+                    self.pt[qi].version = self.pt[qi].version.wrapping_add(1);
+                    self.push(heap, q, next);
+                }
+            }
+        }
+        if let Some(defer) = order.defer {
+            for &q in loop_pts {
+                self.defer_neighbour(heap, q, next, defer, order.defer_bound);
+            }
+        } else {
+            for &q in loop_pts {
+                self.push(heap, q, next);
+            }
+        }
+    }
+
+    /// Queues loop point `q` while deferring: planned at once when its deferred key
+    /// (its previous key over `defer`) is below `next`, else queued at the deferred
+    /// key (`defer_bound`: at the larger of it and a bound of its changed fan).
+    fn defer_neighbour(
+        &mut self,
+        heap: &mut Heap,
+        q: u32,
+        next: u32,
+        defer: f64,
+        defer_bound: bool,
+    ) {
+        let qi = q as usize;
+        let prov = slack_bits(self.queued[qi], 1.0 / defer);
+        if prov < next || self.pt[qi].len == 0 {
+            self.waiting[qi] = false;
+            self.push(heap, q, next);
+        } else if defer_bound {
+            // Bound the changed fan now; queue the larger of the bound
+            // and the deferred key (planned when it comes out). Queued at
+            // the deferred key, the point still waits: the switch to the
+            // exact order evaluates it again.
+            self.waiting[qi] = false;
+            if let Err(r) = self.evaluate_bound(q) {
+                self.queued[qi] = 0;
+                self.count(r);
+                return;
+            }
+            let bound = Item::default().with_cost(self.key()).cost_bits;
+            self.waiting[qi] = bound < prov;
+            let cost_bits = bound.max(prov);
+            if bound > prov {
+                self.queued[qi] = bound;
+            }
+            heap.push(Item {
+                a: q,
+                b: 0,
+                stamp: self.pt[qi].version,
+                cost_bits,
+            });
+        } else {
+            self.waiting[qi] = true;
+            heap.push(Item {
+                a: q,
+                b: 3,
+                stamp: self.pt[qi].version,
+                cost_bits: prov,
+            });
+        }
+    }
+
+    /// Why the run stopped, in `outcome` (after `removed` removals).
+    fn set_stop_reason(&self, outcome: &mut Outcome, removed: usize, stopped: RunStop) {
+        let target = self.options.stop.target_triangles;
+        let max_error = self.options.stop.max_error.unwrap_or(f64::INFINITY);
         if self.live <= target {
             outcome.stop_reason = StopReason::TargetReached;
             outcome.stop_detail = format!(
                 "{} triangles left, target {target}, after removing {removed} points",
                 self.live
             );
-        } else if facing_stop {
+        } else if stopped.facing {
             outcome.stop_reason = StopReason::NoLegalCollapse;
             outcome.stop_detail = format!(
                 "every remaining removal would leave more triangles facing away from the \
                  input surface (a thin part folding over); {} triangles left, target {target}",
                 self.live
             );
-        } else if over_error || self.rejections.max_error > 0 {
+        } else if stopped.over_error || self.rejections.max_error > 0 {
             outcome.stop_reason = StopReason::MaxError;
             outcome.stop_detail = format!(
                 "every remaining removal would exceed the maximum error {max_error:.6}; \
@@ -2293,7 +2437,6 @@ impl VertexRemoval {
                 self.live
             );
         }
-        outcome
     }
 
     /// The live triangles as wedge triples and point triples, with their groups.

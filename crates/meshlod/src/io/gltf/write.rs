@@ -677,7 +677,22 @@ fn pack(
     buffers: &[Option<Arc<[u8]>>],
 ) -> Result<(Vec<u8>, Vec<Value>), FormatError> {
     let Pool { accessors, views } = pool;
-    // Reachable accessors, renumbered in order.
+    let mut kept = keep_used_accessors(root, accessors)?;
+    let (plain, bytes) = view_bytes(&views, buffers)?;
+    let (used, infos) = used_ranges(root, &views, &plain, &kept)?;
+    let packed = lay_out(&views, bytes, &used)?;
+    relocate_all(root, &mut kept, &infos, &packed);
+    if kept.is_empty() {
+        root.remove("accessors");
+    } else {
+        root.insert("accessors".into(), Value::Array(kept));
+    }
+    Ok((packed.bin, packed.views))
+}
+
+/// The accessors `root` reaches, renumbered in order (the references in `root`
+/// follow).
+fn keep_used_accessors(root: &mut Obj, accessors: Vec<Value>) -> Result<Vec<Value>, FormatError> {
     let mut used = vec![false; accessors.len()];
     super::refs::accessors(root, &mut |kind, i, what, v| match v
         .as_u64()
@@ -710,7 +725,14 @@ fn pack(
         }
         Ok(())
     })?;
-    // Each view with its bytes (new views are views of their own bytes).
+    Ok(kept)
+}
+
+/// Each view parsed, with its bytes (new views are views of their own bytes).
+fn view_bytes<'a>(
+    views: &'a [PoolView],
+    buffers: &'a [Option<Arc<[u8]>>],
+) -> Result<(Vec<View>, Vec<&'a [u8]>), FormatError> {
     let mut plain = Vec::with_capacity(views.len());
     let mut bytes = Vec::with_capacity(views.len());
     for (i, v) in views.iter().enumerate() {
@@ -738,7 +760,23 @@ fn pack(
             }
         }
     }
-    // Byte ranges used in each view; images and new views are used whole.
+    Ok((plain, bytes))
+}
+
+/// The byte range used in each view (`lo` = `usize::MAX` for an unused one).
+struct UsedRanges {
+    lo: Vec<usize>,
+    hi: Vec<usize>,
+}
+
+/// The byte ranges the kept accessors (parsed, returned), the images and the new
+/// views use in each view; images and new views are used whole.
+fn used_ranges(
+    root: &Obj,
+    views: &[PoolView],
+    plain: &[View],
+    kept: &[Value],
+) -> Result<(UsedRanges, Vec<accessor::Accessor>), FormatError> {
     let n = views.len();
     let mut lo = vec![usize::MAX; n];
     let mut hi = vec![0usize; n];
@@ -763,7 +801,7 @@ fn pack(
     }
     let mut infos = Vec::with_capacity(kept.len());
     for (i, a) in kept.iter().enumerate() {
-        let acc = accessor::parse_accessor(a, i, &plain, usize::MAX)?;
+        let acc = accessor::parse_accessor(a, i, plain, usize::MAX)?;
         if let Some(v) = acc.view {
             let range = acc
                 .byte_range(plain.get(v).and_then(|w| w.stride))
@@ -776,7 +814,30 @@ fn pack(
         }
         infos.push(acc);
     }
-    // Lay out the used views.
+    Ok((UsedRanges { lo, hi }, infos))
+}
+
+/// The used views laid out in one buffer.
+struct Packed {
+    /// The buffer.
+    bin: Vec<u8>,
+    /// The final view objects.
+    views: Vec<Value>,
+    /// Per pool view, its final index (`None` when unused).
+    view_map: Vec<Option<usize>>,
+    /// Per pool view, the bytes trimmed from its start.
+    trim: Vec<usize>,
+}
+
+/// Lays out the used part of each view (its `bytes`, the range in `used`, its start
+/// trimmed to a multiple of 4) in one buffer at 4-byte alignment.
+fn lay_out(
+    views: &[PoolView],
+    bytes: Vec<&[u8]>,
+    used: &UsedRanges,
+) -> Result<Packed, FormatError> {
+    let n = views.len();
+    let (lo, hi) = (&used.lo, &used.hi);
     let mut bin = Vec::new();
     let mut out_views = Vec::new();
     let mut view_map = vec![None; n];
@@ -808,7 +869,18 @@ fn pack(
         trim[i] = start;
         out_views.push(Value::Object(out));
     }
-    // Point accessors and images at the packed views.
+    Ok(Packed {
+        bin,
+        views: out_views,
+        view_map,
+        trim,
+    })
+}
+
+/// Points the kept accessors (`infos`: parsed) and the images of `root` at the
+/// packed views.
+fn relocate_all(root: &mut Obj, kept: &mut [Value], infos: &[accessor::Accessor], packed: &Packed) {
+    let Packed { view_map, trim, .. } = packed;
     let relocate = |o: &mut Obj, view: usize| {
         let old = o.get("byteOffset").and_then(Value::as_u64).unwrap_or(0) as usize;
         let new = old - trim.get(view).copied().unwrap_or(0).min(old);
@@ -821,7 +893,7 @@ fn pack(
             o.insert("bufferView".into(), num(v));
         }
     };
-    for (a, acc) in kept.iter_mut().zip(&infos) {
+    for (a, acc) in kept.iter_mut().zip(infos) {
         let Some(a) = a.as_object_mut() else { continue };
         if let Some(v) = acc.view {
             relocate(a, v);
@@ -846,12 +918,6 @@ fn pack(
             }
         }
     }
-    if kept.is_empty() {
-        root.remove("accessors");
-    } else {
-        root.insert("accessors".into(), Value::Array(kept));
-    }
-    Ok((bin, out_views))
 }
 
 /// Stores external images as `target` needs: copied next to a `.gltf` in another

@@ -272,7 +272,85 @@ fn try_swap(
         t2,
         old_sums,
     } = edge;
-    let x = ctx.x;
+    let q = quad_of(ctx, st, edge)?;
+    // Over an unfolded quad the two triangulations are at most `h` apart (the
+    // distance between the diagonals' lines), so no sample gets nearer by more
+    // than `h`: the gain is at most 2 h Σ w d (a heuristic for a folded quad; it
+    // can only miss a swap).
+    let [s_wd, e_old, _] = old_sums;
+    if e_old <= 0.0 {
+        return None;
+    }
+    if 2.0 * q.diagonals_apart(ctx.x) * s_wd <= MIN_GAIN * e_old {
+        return None;
+    }
+    let Quad { px, py, pc, pd, k2 } = q;
+    let new = [[px, pd, pc], [py, pc, pd]];
+    let pairs = Pairs::new(ctx.x, [[px, py, pc], [py, px, pd]], new);
+    for i in 0..2 {
+        let (on, nn) = (pairs.on[i], pairs.nn[i]);
+        let (lo, ln) = (norm(on), norm(nn));
+        if ln.is_nan() || ln <= 0.0 || dot(on, nn) < super::MAX_TURN_COS * lo * ln {
+            return None;
+        }
+    }
+    let (oc, nc, on, nn) = (&pairs.oc, &pairs.nc, &pairs.on, &pairs.nn);
+    let q_old = triangle_quality(&oc[0], on[0]).min(triangle_quality(&oc[1], on[1]));
+    let q_new = triangle_quality(&nc[0], nn[0]).min(triangle_quality(&nc[1], nn[1]));
+    if q_new < q_old.min(ctx.min_quality) {
+        return None;
+    }
+    let frames_new = [Frame::new(&nc[0]), Frame::new(&nc[1])];
+    if !input_side_gains(ctx.x, st, edge, q, &pairs, &frames_new) {
+        return None;
+    }
+    let refs = output_side_holds(ctx, q, &pairs, hint, out_side)?;
+    let (va, vb) = (st.out_tris[t1], st.out_tris[t2]);
+    let (vx, vy, vc, vd) = (va[k], va[(k + 1) % 3], va[(k + 2) % 3], vb[(k2 + 2) % 3]);
+    Some(Swap {
+        new_points: new,
+        new_vertices: [[vx, vd, vc], [vy, vc, vd]],
+        frames: frames_new,
+        refs,
+    })
+}
+
+/// The quad around an edge `x–y`: `c` opposite in the first triangle, `d` in the
+/// second (which runs `y → x`, its edge `k2`).
+#[derive(Clone, Copy)]
+struct Quad {
+    px: u32,
+    py: u32,
+    pc: u32,
+    pd: u32,
+    k2: usize,
+}
+
+impl Quad {
+    /// The distance between the lines of the two diagonals (infinite when they are
+    /// parallel).
+    fn diagonals_apart(&self, x: &[V3]) -> f64 {
+        let (pxv, pyv, pcv, pdv) = (
+            x[self.px as usize],
+            x[self.py as usize],
+            x[self.pc as usize],
+            x[self.pd as usize],
+        );
+        let m = cross(sub(pyv, pxv), sub(pdv, pcv));
+        let lm = norm(m);
+        if lm > 0.0 {
+            dot(sub(pcv, pxv), m).abs() / lm
+        } else {
+            f64::INFINITY
+        }
+    }
+}
+
+/// The quad of `edge` when its diagonal can be swapped at all: two distinct
+/// opposite points, not a seam (x and y are one vertex each in both triangles),
+/// one group, and no edge `c–d` already.
+fn quad_of(ctx: &SwapContext<'_>, st: &SwapState<'_>, edge: Candidate) -> Option<Quad> {
+    let Candidate { t1, k, t2, .. } = edge;
     let (a, b) = (st.tris[t1], st.tris[t2]);
     let (px, py, pc) = (a[k], a[(k + 1) % 3], a[(k + 2) % 3]);
     // t2 runs y → x (consistently oriented) with d opposite.
@@ -281,7 +359,6 @@ fn try_swap(
     if pc == pd || [px, py].contains(&pc) || [px, py].contains(&pd) {
         return None;
     }
-    // Not a seam (x and y are one vertex each in both triangles), one group.
     let (va, vb) = (st.out_tris[t1], st.out_tris[t2]);
     if va[k] != vb[(k2 + 1) % 3] || va[(k + 1) % 3] != vb[k2] {
         return None;
@@ -294,53 +371,47 @@ fn try_swap(
     if has_edge(st.conn, st.tris, pc, pd) {
         return None;
     }
-    // Over an unfolded quad the two triangulations are at most `h` apart (the
-    // distance between the diagonals' lines), so no sample gets nearer by more
-    // than `h`: the gain is at most 2 h Σ w d (a heuristic for a folded quad; it
-    // can only miss a swap).
-    let [s_wd, e_old, m_old] = old_sums;
-    if e_old <= 0.0 {
-        return None;
+    Some(Quad { px, py, pc, pd, k2 })
+}
+
+/// The old and the new pair of triangles over a quad: their corners and
+/// (unnormalised) normals.
+struct Pairs {
+    oc: [[V3; 3]; 2],
+    nc: [[V3; 3]; 2],
+    on: [V3; 2],
+    nn: [V3; 2],
+}
+
+impl Pairs {
+    /// The pairs over points `old` and `new` (positions `x`).
+    fn new(x: &[V3], old: [[u32; 3]; 2], new: [[u32; 3]; 2]) -> Self {
+        let corners = |t: [u32; 3]| t.map(|p| x[p as usize]);
+        let normal = |c: &[V3; 3]| cross(sub(c[1], c[0]), sub(c[2], c[0]));
+        let (oc, nc) = (old.map(corners), new.map(corners));
+        let (on, nn) = (oc.each_ref().map(normal), nc.each_ref().map(normal));
+        Self { oc, nc, on, nn }
     }
-    {
-        let (pxv, pyv, pcv, pdv) = (
-            x[px as usize],
-            x[py as usize],
-            x[pc as usize],
-            x[pd as usize],
-        );
-        let m = cross(sub(pyv, pxv), sub(pdv, pcv));
-        let lm = norm(m);
-        let h = if lm > 0.0 {
-            dot(sub(pcv, pxv), m).abs() / lm
-        } else {
-            f64::INFINITY
-        };
-        if 2.0 * h * s_wd <= MIN_GAIN * e_old {
-            return None;
-        }
-    }
-    let old = [[px, py, pc], [py, px, pd]];
-    let new = [[px, pd, pc], [py, pc, pd]];
-    let corners = |t: [u32; 3]| t.map(|p| x[p as usize]);
-    let normal = |c: &[V3; 3]| cross(sub(c[1], c[0]), sub(c[2], c[0]));
-    let (oc, nc) = (old.map(corners), new.map(corners));
-    let (on, nn) = (oc.each_ref().map(normal), nc.each_ref().map(normal));
-    for i in 0..2 {
-        let (lo, ln) = (norm(on[i]), norm(nn[i]));
-        if ln.is_nan() || ln <= 0.0 || dot(on[i], nn[i]) < super::MAX_TURN_COS * lo * ln {
-            return None;
-        }
-    }
-    let q_old = triangle_quality(&oc[0], on[0]).min(triangle_quality(&oc[1], on[1]));
-    let q_new = triangle_quality(&nc[0], nn[0]).min(triangle_quality(&nc[1], nn[1]));
-    if q_new < q_old.min(ctx.min_quality) {
-        return None;
-    }
-    // Input → output: the samples of both triangles on the old and the new pair.
-    // Each sample on the new triangle on its side of the plane through the new
-    // diagonal along the quad's normal.
-    let frames_new = [Frame::new(&nc[0]), Frame::new(&nc[1])];
+}
+
+/// Input → output: whether the samples of both triangles of `edge` lie nearer the
+/// new pair (`frames_new`) than the old by at least the minimum gain, none farther
+/// than the farthest was. Each sample on the new triangle on its side of the plane
+/// through the new diagonal along the quad's normal.
+fn input_side_gains(
+    x: &[V3],
+    st: &SwapState<'_>,
+    edge: Candidate,
+    q: Quad,
+    pairs: &Pairs,
+    frames_new: &[Frame; 2],
+) -> bool {
+    let Candidate {
+        t1, t2, old_sums, ..
+    } = edge;
+    let [_, e_old, m_old] = old_sums;
+    let Quad { px, py, pc, pd, .. } = q;
+    let (on, nn) = (&pairs.on, &pairs.nn);
     let (pcv, pdv) = (x[pc as usize], x[pd as usize]);
     let side = cross(add(on[0], on[1]), sub(pdv, pcv));
     let x_side = dot(sub(x[px as usize], pcv), side) > 0.0;
@@ -362,7 +433,7 @@ fn try_swap(
         }
     }
     if e_new >= bound {
-        return None;
+        return false;
     }
     e_new = 0.0;
     for t in [t1, t2] {
@@ -373,11 +444,26 @@ fn try_swap(
             e_new += f64::from(s.weight) * d_new;
             m_new = m_new.max(d_new);
             if e_new >= bound || m_new > m_old {
-                return None;
+                return false;
             }
         }
     }
-    // Output → input, and facing.
+    true
+}
+
+/// Output → input, and facing: whether the new pair is no farther from the input
+/// than the old (the triangles' centroids and the diagonal's points at ½, ¼ and ¾)
+/// and faces away no more; then the normals of the input triangles nearest the new
+/// triangles' centroids.
+fn output_side_holds(
+    ctx: &SwapContext<'_>,
+    q: Quad,
+    pairs: &Pairs,
+    hint: &mut Option<u32>,
+    out_side: &mut OutSide<'_>,
+) -> Option<[V3; 2]> {
+    let x = ctx.x;
+    let Quad { px, py, pc, pd, .. } = q;
     // The triangles' centroids and the diagonal `p–q`'s points at ½, ¼ and ¾.
     let points = |c: &[[V3; 3]; 2], p: u32, q: u32| -> [V3; 5] {
         let at =
@@ -390,13 +476,13 @@ fn try_swap(
             at(0.75),
         ]
     };
-    let (d_old, away_old, _) = out_side(&points(&oc, px, py), on, hint)?;
+    let (d_old, away_old, _) = out_side(&points(&pairs.oc, px, py), pairs.on, hint)?;
     // The new pair: its centroids' nearest input triangles (their facing and
     // normals are needed), then only whether each point of the new diagonal is
     // within `d_old` of the input (a cheaper query that stops at the first
     // triangle near enough; the same answer as comparing the exact distance).
-    let new_points = points(&nc, pc, pd);
-    let (d_new, away_new, refs) = out_side(&new_points[..2], nn, hint)?;
+    let new_points = points(&pairs.nc, pc, pd);
+    let (d_new, away_new, refs) = out_side(&new_points[..2], pairs.nn, hint)?;
     if d_new > d_old || away_new > away_old {
         return None;
     }
@@ -405,13 +491,7 @@ fn try_swap(
             return None;
         }
     }
-    let (vx, vy, vc, vd) = (va[k], va[(k + 1) % 3], va[(k + 2) % 3], vb[(k2 + 2) % 3]);
-    Some(Swap {
-        new_points: new,
-        new_vertices: [[vx, vd, vc], [vy, vc, vd]],
-        frames: frames_new,
-        refs,
-    })
+    Some(refs)
 }
 
 /// Whether some triangle has the edge `a–b`, with `conn` (the fans) as it was at the

@@ -30,7 +30,8 @@ use meshlod::decimate::Observer;
 use meshlod::io::{read_scene, write_scene, Format, Scene, WriteOptions};
 use meshlod::metrics::{self, Distances, SamplingOptions};
 use meshlod::simplify::{
-    simplify_observed, simplify_stream, Distance, Method, Report, SimplifyOptions, StopReason,
+    simplify_observed, simplify_stream, Distance, Method, Phases as Steps, Report, SimplifyOptions,
+    StopReason,
 };
 use serde::Serialize;
 use std::io::IsTerminal;
@@ -382,6 +383,9 @@ struct CliReport {
     /// the simplifier's share per input triangle.
     #[serde(skip_serializing_if = "Option::is_none")]
     memory: Option<MemoryReport>,
+    /// Seconds of each step of the simplification (summed over a scene's parts):
+    /// `build`, `decimate`, `output`, `refine`.
+    phases: Steps,
 }
 
 /// Progress bar on stderr, advanced by removed triangles.
@@ -826,6 +830,7 @@ fn report(
         non_manifold_vertices: agg.cluster.as_ref().map(|c| c.non_manifold_vertices),
         cluster: agg.cluster,
         memory,
+        phases: agg.phases,
     };
     if args.json {
         out!("{}", serde_json::to_string(&report)?);
@@ -859,6 +864,7 @@ struct Aggregate {
     flat_shading: bool,
     facing_away: Option<[usize; 2]>,
     cluster: Option<ClusterStats>,
+    phases: Steps,
 }
 
 impl Aggregate {
@@ -887,6 +893,7 @@ impl Aggregate {
             flat_shading: false,
             facing_away: None,
             cluster: None,
+            phases: Steps::default(),
         }
     }
 
@@ -909,6 +916,10 @@ impl Aggregate {
         self.vertices_out += instances * r.vertices_out;
         self.error_absolute = self.error_absolute.max(scale * r.error_absolute);
         self.seconds += r.seconds;
+        self.phases.build += r.phases.build;
+        self.phases.decimate += r.phases.decimate;
+        self.phases.output += r.phases.output;
+        self.phases.refine += r.phases.refine;
         self.collapses += r.collapses;
         self.non_edge += r.non_edge_contractions;
         self.degenerate += r.degenerate_removed;
@@ -1127,9 +1138,14 @@ fn print_text(r: &CliReport) {
             d.a_to_b.samples + d.b_to_a.samples
         );
     }
+    let p = &r.phases;
     out!(
-        "  time         {:.3} s simplify, {:.3} s read, {:.3} s write",
+        "  time         {:.3} s simplify (build {:.3}, decimate {:.3}, output {:.3}, refine {:.3}), {:.3} s read, {:.3} s write",
         r.seconds,
+        p.build,
+        p.decimate,
+        p.output,
+        p.refine,
         r.read_seconds,
         r.write_seconds
     );

@@ -659,6 +659,26 @@ pub struct Report {
     /// non-manifold edge and vertex counts of the result.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub cluster: Option<ClusterStats>,
+    /// Seconds of each step.
+    pub phases: Phases,
+}
+
+/// Wall-clock seconds of each step of a run, so a long run shows where its time
+/// went. They add up to about [`Report::seconds`] (validation and the flat-shading
+/// merge are not counted in any step).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Serialize)]
+pub struct Phases {
+    /// Building the surface: welding, spatial order, adjacency, the repair of
+    /// degenerate and duplicate triangles.
+    pub build: f64,
+    /// Decimation: the cost model's set-up, the queue and the collapses or
+    /// removals (for clustering: the whole clustering).
+    pub decimate: f64,
+    /// Writing the output mesh: compaction and attributes.
+    pub output: f64,
+    /// The passes after decimation: edge swaps, vertex fitting and the
+    /// orientation repair (with their closest-point tree over the input).
+    pub refine: f64,
 }
 
 /// The result of [`simplify_observed`]: the mesh, the report, and for every output
@@ -726,6 +746,7 @@ pub fn simplify_observed(
     let fit_possible = (options.fit_iterations > 0 || options.edge_swaps)
         && options.method == Method::Qem
         && options.placement != Placement::Endpoint;
+    let t_build = Instant::now();
     let (mut surface, repair) = Surface::build(
         mesh,
         &BuildOptions {
@@ -738,7 +759,9 @@ pub fn simplify_observed(
     );
     let diag = surface.diagonal();
     let target = options.target_for(mesh.triangles.len());
+    let t_decimate = Instant::now();
     let (outcome, triangles) = decimate(&mut surface, options, target, observer);
+    let t_output = Instant::now();
     let roots = if fit_possible {
         surface.vertex_roots()
     } else {
@@ -754,6 +777,7 @@ pub fn simplify_observed(
     });
     // The simplifier's structures go before the closest-point tree is built.
     drop(surface);
+    let t_refine = Instant::now();
     let passes = Passes {
         facing: options.facing_repair
             && outcome.collapses > 0
@@ -769,6 +793,12 @@ pub fn simplify_observed(
         passes,
         diag,
     );
+    let phases = Phases {
+        build: (t_decimate - t_build).as_secs_f64(),
+        decimate: (t_output - t_decimate).as_secs_f64(),
+        output: (t_refine - t_output).as_secs_f64(),
+        refine: t_refine.elapsed().as_secs_f64(),
+    };
     let report = Report {
         method: options.method.name(),
         triangles_in: mesh.triangles.len(),
@@ -800,6 +830,7 @@ pub fn simplify_observed(
         edge_swaps: fitted.swaps,
         flat_shading: false,
         cluster: None,
+        phases,
     };
     Ok(Simplified {
         mesh: out,
@@ -1118,6 +1149,10 @@ fn cluster_result(
         edge_swaps: 0,
         flat_shading: false,
         cluster: Some(c.stats),
+        phases: Phases {
+            decimate: start.elapsed().as_secs_f64(),
+            ..Phases::default()
+        },
     };
     Simplified {
         mesh: c.mesh,

@@ -385,7 +385,7 @@ struct CliReport {
     memory: Option<MemoryReport>,
     /// Seconds of each step of the simplification (summed over a scene's parts):
     /// `build`, `decimate`, `output`, `refine`.
-    phases: Steps,
+    phase_seconds: Steps,
 }
 
 /// Progress bar on stderr, advanced by removed triangles.
@@ -830,7 +830,7 @@ fn report(
         non_manifold_vertices: agg.cluster.as_ref().map(|c| c.non_manifold_vertices),
         cluster: agg.cluster,
         memory,
-        phases: agg.phases,
+        phase_seconds: agg.phases,
     };
     if args.json {
         out!("{}", serde_json::to_string(&report)?);
@@ -1138,7 +1138,7 @@ fn print_text(r: &CliReport) {
             d.a_to_b.samples + d.b_to_a.samples
         );
     }
-    let p = &r.phases;
+    let p = &r.phase_seconds;
     out!(
         "  time         {:.3} s simplify (build {:.3}, decimate {:.3}, output {:.3}, refine {:.3}), {:.3} s read, {:.3} s write",
         r.seconds,

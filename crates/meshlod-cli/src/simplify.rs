@@ -97,12 +97,21 @@ pub struct SimplifyArgs {
     /// Never move or remove a boundary vertex (qem, melax, vertex-removal).
     #[arg(long, help_heading = heading::METHOD)]
     pub lock_boundary: bool,
+    /// Threads (default: all cores). qem on a mesh of a million triangles or more
+    /// simplifies spatial chunks in parallel, then the whole; the output is the
+    /// same for every thread count.
+    #[arg(long, value_name = "N", help_heading = heading::METHOD)]
+    pub threads: Option<usize>,
+    /// qem: simplify a mesh of a million triangles or more as a whole, on one
+    /// thread, in the exact global order, instead of in chunks (slower).
+    #[arg(long, hide = true, help_heading = heading::TUNING_QEM)]
+    pub no_chunks: bool,
 
     // QEM.
     /// Where QEM places a merged vertex: `optimal`, the quadric minimiser (default);
     /// `endpoint`, the better endpoint (half-edge collapses, no vertex moves, as
     /// `meshlod pm build --method qem` records); `midpoint`, the edge midpoint.
-    #[arg(long, value_enum, hide_possible_values = true, help_heading = heading::QEM)]
+    #[arg(long, value_enum, hide_possible_values = true, hide = true, help_heading = heading::TUNING_QEM)]
     pub placement: Option<PlacementArg>,
     /// qem (optimal or midpoint placement): after simplifying, swap diagonals toward
     /// the input (--swap), then move the output's points toward the input surface
@@ -451,6 +460,13 @@ fn options(args: &SimplifyArgs) -> Result<SimplifyOptions> {
         c = c.with_tolerance(t);
     }
     o = o.with_cluster(c);
+    o.chunks = !args.no_chunks;
+    if let Some(t) = args.threads {
+        if t == 0 {
+            bail!("--threads 0: give 1 or more (default: all cores)");
+        }
+        o = o.with_threads(Some(t));
+    }
     if let Some(p) = args.placement {
         o = o.with_placement(match p {
             PlacementArg::Optimal => meshlod::cost::Placement::Optimal,

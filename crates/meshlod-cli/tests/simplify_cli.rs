@@ -684,6 +684,7 @@ fn simplify_help_shows_at_most_20_flags_and_hides_the_tuning_knobs() {
             "--method",
             "--fit",
             "--json",
+            "--threads",
         ] {
             assert!(text.contains(everyday), "{everyday} missing from {help}");
         }
@@ -722,6 +723,7 @@ fn simplify_help_shows_at_most_20_flags_and_hides_the_tuning_knobs() {
         "--defer-slack",
         "--count-tolerance",
         "--no-reshade-flat",
+        "--placement",
     ] {
         assert!(text.contains(tuning), "{tuning} missing from --help-tuning");
     }

@@ -158,8 +158,9 @@ pub struct SimplifyOptions {
     /// when `preserve_topology` is `false`. Default `None`.
     pub pair_threshold: Option<Distance>,
     /// Minimum quality `4√3·area / Σ edge²` (1 = equilateral) of a triangle created
-    /// by a collapse, unless it was already worse; a soft guard against slivers,
-    /// relaxed if the target cannot be reached otherwise. `0` disables. Default `0.1`.
+    /// by a collapse, unless it was already worse; a soft guard against slivers: a
+    /// collapse that would make one is not refused but ranked at 16 times its
+    /// cost, so it waits for cheaper ones. `0` disables. Default `0.1`.
     pub min_triangle_quality: f64,
     /// Where a merged vertex goes. Default [`Placement::Optimal`].
     pub placement: Placement,
@@ -241,6 +242,18 @@ pub struct SimplifyOptions {
     /// facet normals (see the `flat` module). A mesh with smooth normals anywhere,
     /// or with tangents, is not affected. Default `true`.
     pub reshade_flat: bool,
+    /// Threads for a large mesh's chunks: QEM on a mesh of a million triangles or
+    /// more (with optimal or midpoint placement, without `fit_iterations`,
+    /// `edge_swaps` or non-edge pairs) is simplified in spatial chunks with their
+    /// shared borders locked, then as a whole (the `chunked` module). The chunks
+    /// depend on the mesh alone, so the output is the same for every thread count.
+    /// `None` (default): all cores; `Some(n)`, `n ≥ 1`: `n` threads.
+    pub threads: Option<usize>,
+    /// Let a large mesh be simplified in chunks (see [`Self::threads`]). `false`
+    /// simplifies it as a whole on one thread, in the exact global greedy order
+    /// (slower; the reference the chunked runs are measured against). Default
+    /// `true`.
+    pub chunks: bool,
 }
 
 impl Default for SimplifyOptions {
@@ -273,6 +286,8 @@ impl Default for SimplifyOptions {
             fit_iterations: 0,
             edge_swaps: false,
             reshade_flat: true,
+            threads: None,
+            chunks: true,
         }
     }
 }
@@ -289,6 +304,13 @@ impl SimplifyOptions {
     #[must_use]
     pub fn with_edge_swaps(mut self, swaps: bool) -> Self {
         self.edge_swaps = swaps;
+        self
+    }
+
+    /// Sets [`Self::threads`] (`Some(n)` with `n ≥ 1`, or `None` for all cores).
+    #[must_use]
+    pub fn with_threads(mut self, threads: Option<usize>) -> Self {
+        self.threads = threads;
         self
     }
 
@@ -502,6 +524,9 @@ impl SimplifyOptions {
                  point moves at most its cell's diagonal), a ratio or a triangle count"
                     .to_string(),
             );
+        }
+        if self.threads == Some(0) {
+            return bad("threads", "0 threads: give 1 or more".to_string());
         }
         if let Some(t) = self.pair_threshold {
             if !(t.value() >= 0.0 && t.value().is_finite()) {
@@ -743,47 +768,30 @@ pub fn simplify_observed(
         })?;
         return Ok(cluster_result(c, options, target, start));
     }
+    if let Some(chunk_triangles) = chunked::chunking(mesh, options) {
+        return chunked::simplify_chunked(mesh, options, chunk_triangles, observer, start);
+    }
     let fit_possible = (options.fit_iterations > 0 || options.edge_swaps)
         && options.method == Method::Qem
         && options.placement != Placement::Endpoint;
-    let t_build = Instant::now();
-    let (mut surface, repair) = Surface::build(
-        mesh,
-        &BuildOptions {
-            locked: options.locked_vertices.as_deref(),
-            // The edge-collapse loop's memory walks follow the one-ring; vertex
-            // removal keeps the input's numbering (its measured outputs).
-            spatial_order: matches!(options.method, Method::Qem | Method::Melax),
-            track_merges: fit_possible,
-        },
-    );
-    let diag = surface.diagonal();
     let target = options.target_for(mesh.triangles.len());
-    let t_decimate = Instant::now();
-    let (outcome, triangles) = decimate(&mut surface, options, target, observer);
-    let t_output = Instant::now();
-    let roots = if fit_possible {
-        surface.vertex_roots()
-    } else {
-        None
-    };
-    let (mut out, vertex_source, point_out) =
-        build_output(mesh, triangles, &mut surface, roots.is_some());
-    // For each input vertex, the output vertex it was merged into.
-    let merged_into: Option<Vec<u32>> = roots.map(|r| {
-        r.iter()
-            .map(|&p| point_out.get(p as usize).copied().unwrap_or(u32::MAX))
-            .collect()
-    });
-    // The simplifier's structures go before the closest-point tree is built.
-    drop(surface);
-    let t_refine = Instant::now();
+    let d = decimate_mesh(mesh, options, target, fit_possible, observer);
     let passes = Passes {
         facing: options.facing_repair
-            && outcome.collapses > 0
+            && d.outcome.collapses > 0
             && matches!(options.method, Method::Qem | Method::Melax),
-        fit: fit_possible && outcome.collapses > 0,
+        fit: fit_possible && d.outcome.collapses > 0,
     };
+    let Decimated {
+        mut out,
+        vertex_source,
+        merged_into,
+        outcome,
+        repair,
+        diag,
+        mut phases,
+    } = d;
+    let t_refine = Instant::now();
     let (fitted, facing) = refine(
         mesh,
         options,
@@ -793,12 +801,7 @@ pub fn simplify_observed(
         passes,
         diag,
     );
-    let phases = Phases {
-        build: (t_decimate - t_build).as_secs_f64(),
-        decimate: (t_output - t_decimate).as_secs_f64(),
-        output: (t_refine - t_output).as_secs_f64(),
-        refine: t_refine.elapsed().as_secs_f64(),
-    };
+    phases.refine = t_refine.elapsed().as_secs_f64();
     let report = Report {
         method: options.method.name(),
         triangles_in: mesh.triangles.len(),
@@ -837,6 +840,81 @@ pub fn simplify_observed(
         report,
         vertex_source,
     })
+}
+
+/// What [`decimate_mesh`] leaves: the decimated mesh before the passes after
+/// decimation, with what they and the report need.
+struct Decimated {
+    /// The output mesh.
+    out: Mesh,
+    /// Per output vertex, the input vertex it descends from.
+    vertex_source: Vec<u32>,
+    /// Per input vertex, the output vertex it was merged into (when tracked).
+    merged_into: Option<Vec<u32>>,
+    /// What the decimation did.
+    outcome: Outcome,
+    /// What the up-front repair removed.
+    repair: crate::collapse::Repair,
+    /// The input's bounding-box diagonal.
+    diag: f64,
+    /// Seconds of the build, decimation and output steps (`refine` left 0).
+    phases: Phases,
+}
+
+/// Builds the surface of `mesh`, decimates it toward `target` triangles with the
+/// method of `options` and writes the output mesh (tracking, when `track_merges`,
+/// which output vertex each input vertex was merged into, for the fitting).
+fn decimate_mesh(
+    mesh: &Mesh,
+    options: &SimplifyOptions,
+    target: usize,
+    track_merges: bool,
+    observer: &mut dyn Observer,
+) -> Decimated {
+    let t_build = Instant::now();
+    let (mut surface, repair) = Surface::build(
+        mesh,
+        &BuildOptions {
+            locked: options.locked_vertices.as_deref(),
+            // The edge-collapse loop's memory walks follow the one-ring; vertex
+            // removal keeps the input's numbering (its measured outputs).
+            spatial_order: matches!(options.method, Method::Qem | Method::Melax),
+            track_merges,
+        },
+    );
+    let diag = surface.diagonal();
+    let t_decimate = Instant::now();
+    let (outcome, triangles) = decimate(&mut surface, options, target, observer);
+    let t_output = Instant::now();
+    let roots = if track_merges {
+        surface.vertex_roots()
+    } else {
+        None
+    };
+    let (out, vertex_source, point_out) =
+        build_output(mesh, triangles, &mut surface, roots.is_some());
+    // For each input vertex, the output vertex it was merged into.
+    let merged_into: Option<Vec<u32>> = roots.map(|r| {
+        r.iter()
+            .map(|&p| point_out.get(p as usize).copied().unwrap_or(u32::MAX))
+            .collect()
+    });
+    // The simplifier's structures go before any closest-point tree is built.
+    drop(surface);
+    Decimated {
+        out,
+        vertex_source,
+        merged_into,
+        outcome,
+        repair,
+        diag,
+        phases: Phases {
+            build: (t_decimate - t_build).as_secs_f64(),
+            decimate: (t_output - t_decimate).as_secs_f64(),
+            output: t_output.elapsed().as_secs_f64(),
+            refine: 0.0,
+        },
+    }
 }
 
 /// A flat-shaded input (`flat`): simplified without its normals, the vertices they
@@ -1281,6 +1359,7 @@ fn close_pairs(surface: &mut Surface, t: f64) -> Vec<[u32; 2]> {
     pairs
 }
 
+mod chunked;
 mod facing;
 mod fit;
 mod flat;

@@ -13,6 +13,7 @@
 
 mod distance;
 pub mod generate;
+pub mod partition;
 pub mod stats;
 pub mod subdivide;
 pub mod topology;

@@ -1,0 +1,526 @@
+//! QEM on large meshes in chunks, on every core: the mesh is cut into spatial
+//! chunks ([`crate::mesh::partition`]), each chunk is simplified on its own with
+//! the points it shares with other chunks locked, then the chunks' outputs are put
+//! back together and one global pass takes the whole to the target, the borders
+//! now free.
+//!
+//! 1. **Partition.** `⌈triangles / CHUNK_TRIANGLES⌉` runs of triangles in Z order.
+//!    The count depends on the mesh alone, so the output is the same whatever the
+//!    number of threads (`SimplifyOptions::threads`), one included.
+//! 2. **Chunks, in parallel.** Each chunk is a mesh of its own (its triangles, the
+//!    vertices they use with their attributes, its groups), simplified by the same
+//!    QEM decimation as a whole mesh to [`CHUNK_RATIO_FACTOR`] times the final
+//!    ratio, with its border points locked (as well as the caller's locked
+//!    vertices). The chunks are independent: no chunk sees another's state.
+//! 3. **Merge.** The chunks' outputs are concatenated; a border vertex, present in
+//!    every chunk that uses it and never moved, becomes one vertex again (by its
+//!    input vertex).
+//! 4. **Global pass.** The merged mesh is decimated to the target with everything
+//!    free but the caller's locked vertices, in the exact greedy order, which
+//!    spends the remaining budget where the whole mesh needs it (a flat chunk
+//!    gives up more than a rough one); then the orientation repair runs against
+//!    the original input, as for a whole mesh.
+//!
+//! The global pass starts from quadrics of the merged mesh, not the input's: the
+//! error of step 2 is not carried into its costs, and the reported error is the
+//! chunks' largest plus the global pass's (a bound on their sum). With the chunks at
+//! four times the final ratio the global pass still makes the coarse decisions.
+
+use super::{
+    decimate_mesh, refine, Decimated, Method, Passes, Phases, Placement, Report, Simplified,
+    SimplifyError, SimplifyOptions,
+};
+use crate::decimate::{NoObserver, Observer, Outcome, Rejections, StopReason};
+use crate::mesh::partition::{partition, Partition};
+use crate::mesh::{Distance, Mesh};
+use rayon::prelude::*;
+use std::collections::HashMap;
+use std::time::Instant;
+
+/// Triangles of a chunk.
+pub(super) const CHUNK_TRIANGLES: usize = 1 << 18;
+
+/// Meshes with at least this many triangles are simplified in chunks (four
+/// chunks or more).
+pub(super) const CHUNKED_FROM: usize = 4 * CHUNK_TRIANGLES;
+
+/// Chunks are used when they would keep at most this fraction of the input
+/// (the final ratio times [`CHUNK_RATIO_FACTOR`]): above it the global pass would
+/// redo most of the work and the chunks only add time.
+const CHUNKED_UP_TO: f64 = 0.25;
+
+/// Each chunk is simplified to this many times the final ratio (at most all of
+/// its triangles), the rest left to the global pass.
+const CHUNK_RATIO_FACTOR: f64 = 8.0;
+
+/// The chunk size when `options` on `mesh` go through the chunked path: QEM with
+/// optimal or midpoint placement on a mesh of [`CHUNKED_FROM`] triangles or more,
+/// without the passes that need the whole run's merge history (`fit_iterations`,
+/// `edge_swaps`) and without non-edge pairs.
+pub(super) fn chunking(mesh: &Mesh, options: &SimplifyOptions) -> Option<usize> {
+    let n = mesh.triangles.len();
+    let keep = options.target_for(n) as f64 / n.max(1) as f64 * CHUNK_RATIO_FACTOR;
+    let eligible = options.chunks
+        && keep <= CHUNKED_UP_TO
+        && options.method == Method::Qem
+        && options.placement != Placement::Endpoint
+        && options.fit_iterations == 0
+        && !options.edge_swaps
+        && (options.preserve_topology || options.pair_threshold.is_none())
+        && mesh.triangles.len() >= CHUNKED_FROM;
+    eligible.then_some(CHUNK_TRIANGLES)
+}
+
+/// One chunk's result, in the input's vertex ids.
+struct ChunkResult {
+    out: Mesh,
+    /// Per output vertex, the input vertex it descends from.
+    source: Vec<u32>,
+    outcome: Outcome,
+    repair: crate::collapse::Repair,
+}
+
+/// Forwards progress only (the global pass continues the chunks' count).
+struct Continue<'a>(&'a mut dyn Observer);
+
+impl Observer for Continue<'_> {
+    fn progress(&mut self, triangles: usize) {
+        self.0.progress(triangles);
+    }
+}
+
+/// [`super::simplify_observed`] for a mesh that [`chunking`] accepted.
+pub(super) fn simplify_chunked(
+    mesh: &Mesh,
+    options: &SimplifyOptions,
+    chunk_triangles: usize,
+    observer: &mut dyn Observer,
+    start: Instant,
+) -> Result<Simplified, SimplifyError> {
+    let n = mesh.triangles.len();
+    let target = options.target_for(n);
+    let diag = mesh.bbox_diagonal();
+    observer.started(n, target);
+    let t_build = Instant::now();
+    let part = partition(mesh, chunk_triangles);
+    let t_chunks = Instant::now();
+    // Distances resolved against the whole mesh's diagonal, not a chunk's.
+    let mut inner = options.clone();
+    inner.max_error = options
+        .max_error
+        .map(|e| Distance::Absolute(e.resolve(diag)));
+    inner.ratio = None;
+    inner.target_triangles = None;
+    let ratio = if n > 0 { target as f64 / n as f64 } else { 0.0 };
+    let pool = thread_pool(options.threads)?;
+    // The chunks stop at the error where the sampled chunks, run to the final
+    // ratio, were at `CHUNK_RATIO_FACTOR` times it (and never below the final
+    // ratio): a rough chunk keeps more triangles than a flat one, as in the
+    // global order.
+    let sample = sample_curves(mesh, &part, &inner, ratio, pool.as_ref());
+    let tau = error_for_count(&sample, (ratio * CHUNK_RATIO_FACTOR).min(1.0));
+    if let Some(t) = tau {
+        let bound = inner.max_error.map_or(t, |e| e.resolve(diag).min(t));
+        inner.max_error = Some(Distance::Absolute(bound));
+    }
+    let t_chunks_run = Instant::now();
+    let results = run_chunks(mesh, &part, &inner, ratio, pool.as_ref(), observer);
+    inner.max_error = options
+        .max_error
+        .map(|e| Distance::Absolute(e.resolve(diag)));
+    let t_merge = Instant::now();
+    let (merged, source) = merge(mesh, &part, &results);
+    if let Some(l) = options.locked_vertices.as_deref() {
+        inner.locked_vertices = Some(source.iter().map(|&v| l[v as usize]).collect());
+    } else {
+        inner.locked_vertices = None;
+    }
+    observer.progress(merged.triangles.len());
+    let t_global = Instant::now();
+    let d = decimate_mesh(&merged, &inner, target, false, &mut Continue(observer));
+    drop(merged);
+    let Decimated {
+        mut out,
+        vertex_source,
+        outcome,
+        repair,
+        phases: global,
+        ..
+    } = d;
+    let vertex_source: Vec<u32> = vertex_source.iter().map(|&v| source[v as usize]).collect();
+    let t_refine = Instant::now();
+    let passes = Passes {
+        facing: options.facing_repair && outcome.collapses > 0,
+        fit: false,
+    };
+    let (_, facing) = refine(mesh, options, &mut out, &vertex_source, None, passes, diag);
+    let phases = Phases {
+        build: (t_chunks - t_build).as_secs_f64() + global.build,
+        decimate: (t_merge - t_chunks).as_secs_f64() + global.decimate,
+        output: (t_global - t_merge).as_secs_f64() + global.output,
+        refine: t_refine.elapsed().as_secs_f64(),
+    };
+    let report = chunked_report(ChunkedRun {
+        mesh,
+        target,
+        diag,
+        results: &results,
+        out: &out,
+        global: outcome,
+        global_repair: repair,
+        facing,
+        phases,
+        seconds: start.elapsed().as_secs_f64(),
+    });
+    Ok(Simplified {
+        mesh: out,
+        report,
+        vertex_source,
+    })
+}
+
+/// The thread pool of `threads` threads (`None`: rayon's global pool, all cores).
+fn thread_pool(threads: Option<usize>) -> Result<Option<rayon::ThreadPool>, SimplifyError> {
+    threads
+        .map(|t| {
+            rayon::ThreadPoolBuilder::new()
+                .num_threads(t)
+                .build()
+                .map_err(|e| SimplifyError::Option {
+                    name: "threads",
+                    message: format!("cannot start {t} threads: {e}"),
+                })
+        })
+        .transpose()
+}
+
+/// `f` over `items` in parallel on `pool` (rayon's global pool when `None`), the
+/// results in order.
+fn par_map<T: Sync, R: Send>(
+    pool: Option<&rayon::ThreadPool>,
+    items: &[T],
+    f: impl Fn(&T) -> R + Sync + Send,
+) -> Vec<R> {
+    match pool {
+        Some(p) => p.install(|| items.par_iter().map(&f).collect()),
+        None => items.par_iter().map(&f).collect(),
+    }
+}
+
+/// Every `SAMPLE_STRIDE`-th chunk is run to the final ratio first, to learn
+/// which error the chunks should stop at.
+const SAMPLE_STRIDE: usize = 8;
+
+/// A sampled chunk's run: its size and, per collapse in order, the triangles it
+/// removed and its error.
+struct Curve {
+    triangles: usize,
+    steps: Vec<(u8, f64)>,
+}
+
+/// Records every collapse's removed triangles and error.
+#[derive(Default)]
+struct Recorder(Vec<(u8, f64)>);
+
+impl Observer for Recorder {
+    fn collapsed(&mut self, record: &crate::collapse::CollapseRecord) {
+        let removed = record
+            .removed_triangles
+            .iter()
+            .filter(|&&t| t != crate::collapse::DEAD)
+            .count() as u8;
+        self.0.push((removed, record.error));
+    }
+}
+
+/// Runs every `SAMPLE_STRIDE`-th chunk (the first at least) to `ratio` of its
+/// triangles, recording each collapse.
+fn sample_curves(
+    mesh: &Mesh,
+    part: &Partition,
+    options: &SimplifyOptions,
+    ratio: f64,
+    pool: Option<&rayon::ThreadPool>,
+) -> Vec<Curve> {
+    let picked: Vec<&Vec<u32>> = part.chunks.iter().step_by(SAMPLE_STRIDE).collect();
+    par_map(pool, &picked, |tris| {
+        let mut rec = Recorder::default();
+        simplify_chunk(mesh, part, tris, options, ratio, &mut rec);
+        Curve {
+            triangles: tris.len(),
+            steps: rec.0,
+        }
+    })
+}
+
+/// The smallest error at which the sampled chunks, stopping when their running
+/// maximum error would pass it, keep at most `keep` of their triangles in total
+/// (`None` when no such error was seen: no sample, or they stopped above it).
+fn error_for_count(curves: &[Curve], keep: f64) -> Option<f64> {
+    let total: usize = curves.iter().map(|c| c.triangles).sum();
+    let allowed = (keep * total as f64).floor() as usize;
+    // Per curve, its running maximum after each collapse and the triangles left.
+    let mut points: Vec<(f64, usize)> = Vec::new();
+    for c in curves {
+        let (mut m, mut left) = (0.0f64, c.triangles);
+        for &(removed, e) in &c.steps {
+            m = m.max(e);
+            left = left.saturating_sub(usize::from(removed));
+            points.push((m, left));
+        }
+    }
+    // Triangles kept at error τ: per curve, the count after its last collapse
+    // whose running maximum is ≤ τ. Sweep τ up over the maxima.
+    let mut idx: Vec<usize> = (0..points.len()).collect();
+    idx.sort_by(|&a, &b| points[a].0.total_cmp(&points[b].0));
+    let mut kept = total;
+    // Each curve's count so far, found from the point's curve.
+    let mut owner = Vec::with_capacity(points.len());
+    for (ci, c) in curves.iter().enumerate() {
+        owner.extend(std::iter::repeat_n(ci, c.steps.len()));
+    }
+    let mut current: Vec<usize> = curves.iter().map(|c| c.triangles).collect();
+    for &i in &idx {
+        let (m, left) = points[i];
+        let ci = owner[i];
+        if left < current[ci] {
+            kept -= current[ci] - left;
+            current[ci] = left;
+        }
+        if kept <= allowed {
+            return Some(m);
+        }
+    }
+    None
+}
+
+/// Simplifies every chunk of `part` (in waves of a few chunks per thread, with
+/// progress between waves) on `pool`.
+fn run_chunks(
+    mesh: &Mesh,
+    part: &Partition,
+    options: &SimplifyOptions,
+    ratio: f64,
+    pool: Option<&rayon::ThreadPool>,
+    observer: &mut dyn Observer,
+) -> Vec<ChunkResult> {
+    let width = pool.map_or_else(
+        rayon::current_num_threads,
+        rayon::ThreadPool::current_num_threads,
+    );
+    let mut results = Vec::with_capacity(part.chunks.len());
+    let mut removed = 0usize;
+    for wave in part.chunks.chunks(4 * width.max(1)) {
+        let done = par_map(pool, wave, |tris| {
+            simplify_chunk(mesh, part, tris, options, ratio, &mut NoObserver)
+        });
+        for (tris, r) in wave.iter().zip(&done) {
+            removed += tris.len().saturating_sub(r.out.triangles.len());
+        }
+        observer.progress(mesh.triangles.len() - removed);
+        results.extend(done);
+    }
+    results
+}
+
+/// The mesh of one chunk (`tris` of `mesh`), simplified to `chunk_ratio` of its
+/// triangles with its border vertices (and the caller's locked ones) locked.
+fn simplify_chunk(
+    mesh: &Mesh,
+    part: &Partition,
+    tris: &[u32],
+    options: &SimplifyOptions,
+    chunk_ratio: f64,
+    observer: &mut dyn Observer,
+) -> ChunkResult {
+    let (sub, verts) = extract(mesh, tris);
+    let user = options.locked_vertices.as_deref();
+    let locked: Vec<bool> = verts
+        .iter()
+        .map(|&v| part.border[v as usize] || user.is_some_and(|l| l[v as usize]))
+        .collect();
+    let mut o = options.clone();
+    o.locked_vertices = Some(locked);
+    let target = (tris.len() as f64 * chunk_ratio).ceil() as usize;
+    let d = decimate_mesh(&sub, &o, target, false, observer);
+    ChunkResult {
+        source: d.vertex_source.iter().map(|&v| verts[v as usize]).collect(),
+        out: d.out,
+        outcome: d.outcome,
+        repair: d.repair,
+    }
+}
+
+/// The triangles `tris` of `mesh` as a mesh of their own (vertices in input
+/// order, with their attributes; groups kept), and its vertices' input ids.
+fn extract(mesh: &Mesh, tris: &[u32]) -> (Mesh, Vec<u32>) {
+    let mut verts: Vec<u32> = tris
+        .iter()
+        .flat_map(|&t| mesh.triangles[t as usize])
+        .collect();
+    verts.sort_unstable();
+    verts.dedup();
+    let local = |v: u32| verts.binary_search(&v).expect("a chunk's own vertex") as u32;
+    let sub = Mesh {
+        positions: verts.iter().map(|&v| mesh.positions[v as usize]).collect(),
+        triangles: tris
+            .iter()
+            .map(|&t| mesh.triangles[t as usize].map(local))
+            .collect(),
+        attributes: mesh.attributes.gather(&verts),
+        groups: mesh
+            .groups
+            .as_ref()
+            .map(|g| tris.iter().map(|&t| g[t as usize]).collect()),
+        group_names: mesh.group_names.clone(),
+    };
+    (sub, verts)
+}
+
+/// The chunks' outputs as one mesh: a border vertex (one input vertex, locked in
+/// every chunk that has it) becomes one vertex; every other output vertex is its
+/// chunk's own. Returns the mesh and, per vertex, its input vertex.
+fn merge(mesh: &Mesh, part: &Partition, results: &[ChunkResult]) -> (Mesh, Vec<u32>) {
+    let vertices: usize = results.iter().map(|r| r.out.positions.len()).sum();
+    let triangles: usize = results.iter().map(|r| r.out.triangles.len()).sum();
+    let mut merged = Mesh {
+        positions: Vec::with_capacity(vertices),
+        triangles: Vec::with_capacity(triangles),
+        attributes: Default::default(),
+        groups: mesh.groups.as_ref().map(|_| Vec::with_capacity(triangles)),
+        group_names: mesh.group_names.clone(),
+    };
+    let mut source: Vec<u32> = Vec::with_capacity(vertices);
+    let mut border_at: HashMap<u32, u32> = HashMap::new();
+    for r in results {
+        // Local vertex → merged vertex; the vertices this chunk adds.
+        let mut map = Vec::with_capacity(r.out.positions.len());
+        let mut new_local = Vec::with_capacity(r.out.positions.len());
+        for (i, &src) in r.source.iter().enumerate() {
+            let id = if part.border[src as usize] {
+                let next = (source.len() + new_local.len()) as u32;
+                let id = *border_at.entry(src).or_insert(next);
+                if id == next {
+                    new_local.push(i as u32);
+                }
+                id
+            } else {
+                new_local.push(i as u32);
+                (source.len() + new_local.len() - 1) as u32
+            };
+            map.push(id);
+        }
+        let before = merged.positions.len();
+        merged
+            .positions
+            .extend(new_local.iter().map(|&i| r.out.positions[i as usize]));
+        let attrs = r.out.attributes.gather(&new_local);
+        merged.attributes.append(before, &attrs, new_local.len());
+        source.extend(new_local.iter().map(|&i| r.source[i as usize]));
+        merged
+            .triangles
+            .extend(r.out.triangles.iter().map(|t| t.map(|v| map[v as usize])));
+        if let (Some(g), Some(rg)) = (&mut merged.groups, &r.out.groups) {
+            g.extend_from_slice(rg);
+        } else if let Some(g) = &mut merged.groups {
+            g.extend(std::iter::repeat_n(0, r.out.triangles.len()));
+        }
+    }
+    (merged, source)
+}
+
+/// What [`chunked_report`] sums up.
+struct ChunkedRun<'a> {
+    mesh: &'a Mesh,
+    target: usize,
+    diag: f64,
+    results: &'a [ChunkResult],
+    out: &'a Mesh,
+    global: Outcome,
+    global_repair: crate::collapse::Repair,
+    facing: Option<super::facing::FacingRepair>,
+    phases: Phases,
+    seconds: f64,
+}
+
+/// The report of a chunked run: the chunks' and the global pass's counts added,
+/// the stop reason the global pass's.
+fn chunked_report(run: ChunkedRun<'_>) -> Report {
+    let mut rejections = run.global.rejections;
+    let (mut collapses, mut retries, mut rescans) =
+        (run.global.collapses, run.global.retries, run.global.rescans);
+    let (mut degenerate, mut duplicate) = (
+        run.global_repair.degenerate_triangles,
+        run.global_repair.duplicate_triangles,
+    );
+    let mut chunk_error = 0.0f64;
+    for r in run.results {
+        add_rejections(&mut rejections, &r.outcome.rejections);
+        collapses += r.outcome.collapses;
+        retries += r.outcome.retries;
+        rescans += r.outcome.rescans;
+        degenerate += r.repair.degenerate_triangles;
+        duplicate += r.repair.duplicate_triangles;
+        chunk_error = chunk_error.max(r.outcome.max_error);
+    }
+    let error = if run.global.collapses > 0 || chunk_error > 0.0 {
+        chunk_error + run.global.max_error
+    } else {
+        0.0
+    };
+    let stop_detail = match run.global.stop_reason {
+        StopReason::TargetReached => format!(
+            "reached the target of {} triangles ({} chunks, then the whole)",
+            run.target,
+            run.results.len()
+        ),
+        _ => run.global.stop_detail,
+    };
+    Report {
+        method: Method::Qem.name(),
+        triangles_in: run.mesh.triangles.len(),
+        vertices_in: run.mesh.positions.len(),
+        target_triangles: run.target,
+        triangles_out: run.out.triangles.len(),
+        vertices_out: run.out.positions.len(),
+        error: if run.diag > 0.0 {
+            error / run.diag
+        } else {
+            0.0
+        },
+        error_absolute: error,
+        bbox_diagonal: run.diag,
+        stop_reason: run.global.stop_reason,
+        stop_detail,
+        seconds: run.seconds,
+        collapses,
+        non_edge_contractions: 0,
+        degenerate_removed: degenerate,
+        duplicate_removed: duplicate,
+        rejections,
+        rescans,
+        retries,
+        soft_filters_relaxed: false,
+        facing_flips: run.facing.map_or(0, |f| f.flips),
+        facing_away: run.facing.map(|f| [f.before, f.after]),
+        fit_moved: 0,
+        edge_swaps: 0,
+        flat_shading: false,
+        cluster: None,
+        phases: run.phases,
+    }
+}
+
+/// Adds the counts of `b` to `a`.
+fn add_rejections(a: &mut Rejections, b: &Rejections) {
+    a.kind += b.kind;
+    a.non_manifold_edge += b.non_manifold_edge;
+    a.link += b.link;
+    a.duplicate += b.duplicate;
+    a.seam += b.seam;
+    a.fold_over += b.fold_over;
+    a.degenerate += b.degenerate;
+    a.pair += b.pair;
+    a.filter += b.filter;
+    a.max_error += b.max_error;
+}

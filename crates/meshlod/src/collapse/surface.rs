@@ -1314,10 +1314,14 @@ impl Surface {
         if v_moves && !self.attrs.is_empty() {
             self.interpolate_attributes(u, v, p);
         }
-        let dying = self.kill_shared_triangles(u, v);
+        // `u`'s fan is `fans[su..su + lu]` until `merge_fans` releases it (the steps
+        // before change other fans only): read once.
+        let su = self.fan_slot[u as usize].start as usize;
+        let lu = self.fan_slot[u as usize].len as usize;
+        let dying = self.kill_shared_triangles(u, v, su, lu);
         let non_edge = dying.count == 0;
-        self.redirect_corners(u, v, non_edge, &dying.wedge_map);
-        let new_len = self.merge_fans(u, v, dying.count);
+        self.redirect_corners(u, v, su, lu, non_edge, &dying.wedge_map);
+        let new_len = self.merge_fans(u, v, su, lu, dying.count);
         if let Some(m) = self.merged.get_mut(u as usize) {
             *m = v;
         }
@@ -1341,9 +1345,10 @@ impl Surface {
     /// First step of [`Self::collapse`]: the triangles of `u`'s fan over `v` too
     /// die (marked [`DEAD`], removed from their apexes' fans; they stay listed in
     /// `u`'s and `v`'s fans until [`Self::merge_fans`]). With wedges, records how
-    /// `u`'s wedge maps to `v`'s in (up to two of) them.
+    /// `u`'s wedge maps to `v`'s in (up to two of) them. `u`'s fan is
+    /// `fans[su..su + lu]`.
     #[inline(always)]
-    fn kill_shared_triangles(&mut self, u: u32, v: u32) -> Dying {
+    fn kill_shared_triangles(&mut self, u: u32, v: u32, su: usize, lu: usize) -> Dying {
         let mut d = Dying {
             wedge_map: [(DEAD, DEAD); 2],
             triangles: [DEAD; 2],
@@ -1351,8 +1356,6 @@ impl Surface {
             count: 0,
         };
         let mut nmap = 0;
-        let su = self.fan_slot[u as usize].start as usize;
-        let lu = self.fan_slot[u as usize].len as usize;
         for i in 0..lu {
             let t = self.fans[su + i];
             let tt = self.tri[t as usize];
@@ -1381,11 +1384,18 @@ impl Surface {
     /// Second step of [`Self::collapse`]: `u`'s corners in its surviving triangles
     /// become `v`. With wedges, a non-edge contraction moves the corner's wedge to
     /// `v` (`wedge_point`); an edge collapse gives the corner `v`'s wedge where
-    /// `wedge_map` (from the dying triangles) says so.
+    /// `wedge_map` (from the dying triangles) says so. `u`'s fan is
+    /// `fans[su..su + lu]`.
     #[inline(always)]
-    fn redirect_corners(&mut self, u: u32, v: u32, non_edge: bool, wedge_map: &[(u32, u32); 2]) {
-        let su = self.fan_slot[u as usize].start as usize;
-        let lu = self.fan_slot[u as usize].len as usize;
+    fn redirect_corners(
+        &mut self,
+        u: u32,
+        v: u32,
+        su: usize,
+        lu: usize,
+        non_edge: bool,
+        wedge_map: &[(u32, u32); 2],
+    ) {
         for i in 0..lu {
             let t = self.fans[su + i];
             let tt = &mut self.tri[t as usize];
@@ -1421,11 +1431,9 @@ impl Surface {
     /// Third step of [`Self::collapse`]: `v`'s fan becomes the live triangles of
     /// both fans (`n_dead` of each died), in place when they fit its capacity, else
     /// at the end of the fan array ([`Self::move_merged_fan`]); `u`'s fan is
-    /// released. Returns the merged fan's length.
+    /// released. Returns the merged fan's length. `u`'s fan is `fans[su..su + lu]`.
     #[inline(always)]
-    fn merge_fans(&mut self, u: u32, v: u32, n_dead: usize) -> usize {
-        let su = self.fan_slot[u as usize].start as usize;
-        let lu = self.fan_slot[u as usize].len as usize;
+    fn merge_fans(&mut self, u: u32, v: u32, su: usize, lu: usize, n_dead: usize) -> usize {
         let sv = self.fan_slot[v as usize].start as usize;
         let lv = self.fan_slot[v as usize].len as usize;
         // A fan lists live triangles only, each once, and the dying ones (over both

@@ -666,9 +666,11 @@ pub fn run<C: CostModel + ?Sized>(
     crate::isa::dispatch!(run_impl(surface, cost, filters, options, observer))
 }
 
-/// The whole run (see the module docs); each pop goes through the steps below,
-/// each a method of [`Driver`]. Every step is `#[inline(always)]`, so that it is
-/// compiled into the AVX2 copy `run` dispatches to.
+/// The whole run (see the module docs): the setup, then the queue loop, whose
+/// steps are methods of [`Driver`]. Each step the loop runs per pop is
+/// `#[inline(always)]`, so that it is compiled into the AVX2 copy `run` dispatches
+/// to; `extra_partners` (setup) and `no_legal_collapse_detail` (the stop sentence)
+/// run once and are plain functions.
 #[inline(always)]
 fn run_impl<C: CostModel + ?Sized>(
     surface: &mut Surface,

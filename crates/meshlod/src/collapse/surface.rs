@@ -127,6 +127,21 @@ struct EdgeScratch {
     l2: u32,
 }
 
+/// The triangles a collapse kills: those over both of its points
+/// ([`Surface::kill_shared_triangles`]).
+#[derive(Debug, Clone, Copy)]
+struct Dying {
+    /// `(u's wedge, v's wedge)` in the first two of them, with per-corner wedges
+    /// (`(DEAD, DEAD)` where none).
+    wedge_map: [(u32, u32); 2],
+    /// The first two of them ([`DEAD`] where fewer).
+    triangles: [u32; 2],
+    /// Their third corners ([`DEAD`] where fewer).
+    apexes: [u32; 2],
+    /// How many died (0 for a non-edge pair).
+    count: usize,
+}
+
 /// Connectivity of a welded triangle mesh being simplified.
 ///
 /// Points are welded positions (ids `0..point_count`), triangles refer to points and,
@@ -202,97 +217,20 @@ impl Surface {
             .map(|&v| mesh.positions[v as usize])
             .collect();
 
-        // Triangles, without degenerate ones, each counted under its smallest point.
+        // Triangles without degenerate ones, ordered by their smallest point, then
+        // without duplicate copies.
         let mut repair = Repair::default();
-        let mut kept = Vec::with_capacity(mesh.triangles.len());
-        let mut kept_wedge = has_attrs.then(|| Vec::with_capacity(mesh.triangles.len()));
-        let mut kept_group = mesh
-            .groups
-            .as_ref()
-            .map(|_| Vec::with_capacity(mesh.triangles.len()));
-        let mut count = vec![0u32; np + 1];
-        for (ti, t) in mesh.triangles.iter().enumerate() {
-            let w = match &canonical {
-                Some(c) => t.map(|v| c[v as usize]),
-                None => *t,
-            };
-            let p = w.map(|v| point_of[v as usize]);
-            if p[0] == p[1] || p[1] == p[2] || p[0] == p[2] {
-                repair.degenerate_triangles += 1;
-                continue;
-            }
-            let (a, b, c) = (
-                f64x3(pos[p[0] as usize]),
-                f64x3(pos[p[1] as usize]),
-                f64x3(pos[p[2] as usize]),
-            );
-            if cross(sub(b, a), sub(c, a)) == [0.0; 3] {
-                repair.degenerate_triangles += 1;
-                continue;
-            }
-            count[p[0].min(p[1]).min(p[2]) as usize + 1] += 1;
-            kept.push(p);
-            if let Some(tw) = &mut kept_wedge {
-                tw.push(w);
-            }
-            if let (Some(tg), Some(g)) = (&mut kept_group, &mesh.groups) {
-                tg.push(g[ti]);
-            }
-        }
-        drop(canonical);
+        let kept = keep_nondegenerate(mesh, canonical, &point_of, &pos, &mut repair);
+        let SortedTriangles {
+            mut tri,
+            wedge: tri_wedge,
+            group: tri_group,
+            ends,
+        } = sort_by_smallest_point(kept, np);
+        let n = tri.len();
+        repair.duplicate_triangles = remove_duplicates(&mut tri, &ends[..np]);
 
-        // Order triangles by their smallest point (a stable counting sort, O(n)): the
-        // triangles around a point then sit close together in memory, which is what
-        // every fan walk touches, and copies of one triangle sit in one group.
-        for i in 0..np {
-            count[i + 1] += count[i];
-        }
-        let n = kept.len();
-        let mut tri = vec![[0u32; 3]; n];
-        let mut dest = Vec::with_capacity(n);
-        for t in &kept {
-            let m = t[0].min(t[1]).min(t[2]) as usize;
-            let d = count[m];
-            count[m] += 1;
-            tri[d as usize] = *t;
-            dest.push(d);
-        }
-        drop(kept);
-        // `count[m]` is now the end of point `m`'s group (and the start of `m + 1`'s).
-        let scatter = |v: Vec<[u32; 3]>| {
-            let mut out = vec![[0u32; 3]; n];
-            for (&d, x) in dest.iter().zip(v) {
-                out[d as usize] = x;
-            }
-            out
-        };
-        let tri_wedge = kept_wedge.map(scatter);
-        let tri_group = kept_group.map(|v| {
-            let mut out = vec![0u32; n];
-            for (&d, x) in dest.iter().zip(v) {
-                out[d as usize] = x;
-            }
-            out
-        });
-        drop(dest);
-        repair.duplicate_triangles = remove_duplicates(&mut tri, &count[..np]);
-
-        let (diag, center) = bounds.map_or((0.0, [0.0; 3]), |(lo, hi)| {
-            // As `Mesh::bbox_diagonal`, from the one box.
-            let diag = (0..3)
-                .map(|k| {
-                    let d = f64::from(hi[k]) - f64::from(lo[k]);
-                    d * d
-                })
-                .sum::<f64>()
-                .sqrt();
-            let center = [
-                0.5 * (f64::from(lo[0]) + f64::from(hi[0])),
-                0.5 * (f64::from(lo[1]) + f64::from(hi[1])),
-                0.5 * (f64::from(lo[2]) + f64::from(hi[2])),
-            ];
-            (diag, center)
-        });
+        let (diag, center) = diagonal_and_center(bounds);
         // A triangle is degenerate when its smallest height is at or below the
         // spacing of `f32` coordinates over the bounding box, `ε·diag`: its normal is
         // then no longer set by its stored corners. Relative to the box, so the same
@@ -340,15 +278,35 @@ impl Surface {
         s.build_fans();
         s.live_tris = n - repair.duplicate_triangles;
 
-        // Wedges: does any point have corners with different wedges?
+        s.assign_point_wedges(&representative);
+        for p in 0..np as u32 {
+            s.classify(p);
+        }
+        if let Some(locked) = options.locked {
+            s.lock(locked);
+        }
+        // The wedge → point map is only needed to move seam wedges (non-edge pairs).
+        // (Kept to follow the merges.)
+        if s.tri_wedge.is_none() && !options.track_merges {
+            s.wedge_point = Vec::new();
+        }
+        (s, repair)
+    }
+
+    /// Sets each point's wedge: with per-corner wedges, the wedge of its first
+    /// corner (then, when no point has corners with different wedges, the
+    /// per-corner wedges are dropped, as no seam needs them); without, its
+    /// representative input vertex (`representative[p]`).
+    fn assign_point_wedges(&mut self, representative: &[u32]) {
+        // Does any point have corners with different wedges?
         let mut seams = false;
-        if let Some(tw) = &s.tri_wedge {
-            for (t, w) in s.tri.iter().zip(tw.iter()) {
+        if let Some(tw) = &self.tri_wedge {
+            for (t, w) in self.tri.iter().zip(tw.iter()) {
                 if t[0] == DEAD {
                     continue;
                 }
                 for k in 0..3 {
-                    let pw = &mut s.point_wedge[t[k] as usize];
+                    let pw = &mut self.point_wedge[t[k] as usize];
                     if *pw == DEAD {
                         *pw = w[k];
                     } else if *pw != w[k] {
@@ -357,39 +315,33 @@ impl Surface {
                 }
             }
         } else {
-            for (p, pw) in s.point_wedge.iter_mut().enumerate() {
-                *pw = canonical_of_point(&representative, p);
+            for (p, pw) in self.point_wedge.iter_mut().enumerate() {
+                *pw = canonical_of_point(representative, p);
             }
         }
         if !seams {
-            if let Some(tw) = s.tri_wedge.take() {
-                for (t, w) in s.tri.iter().zip(tw.iter()) {
+            if let Some(tw) = self.tri_wedge.take() {
+                for (t, w) in self.tri.iter().zip(tw.iter()) {
                     if t[0] != DEAD {
                         for k in 0..3 {
-                            s.point_wedge[t[k] as usize] = w[k];
+                            self.point_wedge[t[k] as usize] = w[k];
                         }
                     }
                 }
             }
         }
-        for p in 0..np as u32 {
-            s.classify(p);
-        }
-        if let Some(locked) = options.locked {
-            for (v, &l) in locked.iter().enumerate() {
-                if l {
-                    if let Some(&p) = s.wedge_point.get(v) {
-                        s.kind[p as usize] = VertexKind::Locked;
-                    }
+    }
+
+    /// Locks the points of the input vertices `locked` marks (see
+    /// [`BuildOptions::locked`]).
+    fn lock(&mut self, locked: &[bool]) {
+        for (v, &l) in locked.iter().enumerate() {
+            if l {
+                if let Some(&p) = self.wedge_point.get(v) {
+                    self.kind[p as usize] = VertexKind::Locked;
                 }
             }
         }
-        // The wedge → point map is only needed to move seam wedges (non-edge pairs).
-        // (Kept to follow the merges.)
-        if s.tri_wedge.is_none() && !options.track_merges {
-            s.wedge_point = Vec::new();
-        }
-        (s, repair)
     }
 
     /// Builds the fans from the live triangles (as [`FanCsr::build`], straight into
@@ -1356,24 +1308,60 @@ impl Surface {
         let v_moves = p != kept_old_position;
         self.kind_changed = [DEAD; 2];
 
+        // In steps: the attributes are interpolated (when `v` moves), the triangles
+        // over both points die, `u`'s other corners become `v`'s, the two fans merge
+        // into `v`'s, and the kinds around are updated.
         if v_moves && !self.attrs.is_empty() {
             self.interpolate_attributes(u, v, p);
         }
-
-        // Wedge map from the dying triangles.
-        let mut map = [(DEAD, DEAD); 2];
-        let mut nmap = 0;
-        let mut removed_triangles = [DEAD; 2];
-        let mut opp = [DEAD; 2];
-        let mut n_dead = 0;
+        // `u`'s fan is `fans[su..su + lu]` until `merge_fans` releases it (the steps
+        // before change other fans only): read once.
         let su = self.fan_slot[u as usize].start as usize;
         let lu = self.fan_slot[u as usize].len as usize;
+        let dying = self.kill_shared_triangles(u, v, su, lu);
+        let non_edge = dying.count == 0;
+        self.redirect_corners(u, v, su, lu, non_edge, &dying.wedge_map);
+        let new_len = self.merge_fans(u, v, su, lu, dying.count);
+        if let Some(m) = self.merged.get_mut(u as usize) {
+            *m = v;
+        }
+        self.pos[v as usize] = p;
+        self.update_kinds(u, v, dying.apexes, non_edge, new_len);
+
+        CollapseRecord {
+            removed: u,
+            kept: v,
+            removed_position,
+            kept_old_position,
+            position: p,
+            removed_triangles: dying.triangles,
+            apexes: dying.apexes,
+            non_edge,
+            cost: 0.0,
+            error: 0.0,
+        }
+    }
+
+    /// First step of [`Self::collapse`]: the triangles of `u`'s fan over `v` too
+    /// die (marked [`DEAD`], removed from their apexes' fans; they stay listed in
+    /// `u`'s and `v`'s fans until [`Self::merge_fans`]). With wedges, records how
+    /// `u`'s wedge maps to `v`'s in (up to two of) them. `u`'s fan is
+    /// `fans[su..su + lu]`.
+    #[inline(always)]
+    fn kill_shared_triangles(&mut self, u: u32, v: u32, su: usize, lu: usize) -> Dying {
+        let mut d = Dying {
+            wedge_map: [(DEAD, DEAD); 2],
+            triangles: [DEAD; 2],
+            apexes: [DEAD; 2],
+            count: 0,
+        };
+        let mut nmap = 0;
         for i in 0..lu {
             let t = self.fans[su + i];
             let tt = self.tri[t as usize];
             if tt.contains(&v) {
                 if self.tri_wedge.is_some() && nmap < 2 {
-                    map[nmap] = (
+                    d.wedge_map[nmap] = (
                         self.wedge(t, self.corner_of(t, u)),
                         self.wedge(t, self.corner_of(t, v)),
                     );
@@ -1381,16 +1369,33 @@ impl Surface {
                 }
                 let x = tt[0] ^ tt[1] ^ tt[2] ^ u ^ v;
                 self.remove_from_fan(x, t);
-                if n_dead < 2 {
-                    removed_triangles[n_dead] = t;
-                    opp[n_dead] = x;
+                if d.count < 2 {
+                    d.triangles[d.count] = t;
+                    d.apexes[d.count] = x;
                 }
-                n_dead += 1;
+                d.count += 1;
                 self.tri[t as usize] = [DEAD; 3];
                 self.live_tris -= 1;
             }
         }
-        let non_edge = n_dead == 0;
+        d
+    }
+
+    /// Second step of [`Self::collapse`]: `u`'s corners in its surviving triangles
+    /// become `v`. With wedges, a non-edge contraction moves the corner's wedge to
+    /// `v` (`wedge_point`); an edge collapse gives the corner `v`'s wedge where
+    /// `wedge_map` (from the dying triangles) says so. `u`'s fan is
+    /// `fans[su..su + lu]`.
+    #[inline(always)]
+    fn redirect_corners(
+        &mut self,
+        u: u32,
+        v: u32,
+        su: usize,
+        lu: usize,
+        non_edge: bool,
+        wedge_map: &[(u32, u32); 2],
+    ) {
         for i in 0..lu {
             let t = self.fans[su + i];
             let tt = &mut self.tri[t as usize];
@@ -1410,15 +1415,25 @@ impl Surface {
                     self.wedge_point[tw[t as usize][k] as usize] = v;
                 } else {
                     let w = tw[t as usize][k];
-                    let to = if w == map[0].0 { map[0].1 } else { map[1].1 };
+                    let to = if w == wedge_map[0].0 {
+                        wedge_map[0].1
+                    } else {
+                        wedge_map[1].1
+                    };
                     if to != DEAD {
                         tw[t as usize][k] = to;
                     }
                 }
             }
         }
+    }
 
-        // Merge the fans into v.
+    /// Third step of [`Self::collapse`]: `v`'s fan becomes the live triangles of
+    /// both fans (`n_dead` of each died), in place when they fit its capacity, else
+    /// at the end of the fan array ([`Self::move_merged_fan`]); `u`'s fan is
+    /// released. Returns the merged fan's length. `u`'s fan is `fans[su..su + lu]`.
+    #[inline(always)]
+    fn merge_fans(&mut self, u: u32, v: u32, su: usize, lu: usize, n_dead: usize) -> usize {
         let sv = self.fan_slot[v as usize].start as usize;
         let lv = self.fan_slot[v as usize].len as usize;
         // A fan lists live triangles only, each once, and the dying ones (over both
@@ -1456,54 +1471,69 @@ impl Surface {
                 }
             }
         } else {
-            let cap = new_len + new_len / 2 + FAN_SLACK as usize;
-            // Compact when a quarter is garbage, or instead of growing the
-            // allocation when an eighth is (compacting costs what moving it would).
-            let grows = self.fans.len() + cap > self.fans.capacity();
-            if self.fan_garbage > self.fans.len() / 4
-                || (grows && self.fan_garbage > self.fans.len() / 8)
-            {
-                self.compact_fans();
-            }
-            // Grow by a quarter rather than double: still amortised O(1), and the
-            // array (the largest per-triangle structure) stays near its live size.
-            if self.fans.len() + cap > self.fans.capacity() {
-                self.fans.reserve_exact(cap.max(self.fans.len() / 4));
-            }
-            let sv = self.fan_slot[v as usize].start as usize;
-            let su = self.fan_slot[u as usize].start as usize;
-            let start = self.fans.len();
-            for i in 0..lv {
-                let t = self.fans[sv + i];
-                if self.tri[t as usize][0] != DEAD {
-                    self.fans.push(t);
-                }
-            }
-            for i in 0..lu {
-                let t = self.fans[su + i];
-                if self.tri[t as usize][0] != DEAD {
-                    self.fans.push(t);
-                }
-            }
-            self.fans.resize(start + cap, DEAD);
-            self.fan_garbage += self.fan_slot[v as usize].cap as usize;
-            self.fan_slot[v as usize].start = start as u32;
-            self.fan_slot[v as usize].cap = cap as u32;
+            self.move_merged_fan(u, v, lu, lv, new_len);
         }
         self.fan_slot[v as usize].len = new_len as u32;
         self.fan_garbage += self.fan_slot[u as usize].cap as usize;
         self.fan_slot[u as usize].len = 0;
         self.fan_slot[u as usize].cap = 0;
-        if let Some(m) = self.merged.get_mut(u as usize) {
-            *m = v;
-        }
-        self.pos[v as usize] = p;
+        new_len
+    }
 
-        // Kinds: unchanged when everything around was manifold, otherwise recomputed.
+    /// [`Self::merge_fans`] when the merged fan (`new_len` triangles, from `v`'s
+    /// `lv` entries and `u`'s `lu`) outgrows `v`'s capacity: it is written at the
+    /// end of the fan array with room to grow, after compacting the array when
+    /// enough of it is garbage, and `v`'s old slots become garbage.
+    #[inline(always)]
+    fn move_merged_fan(&mut self, u: u32, v: u32, lu: usize, lv: usize, new_len: usize) {
+        let cap = new_len + new_len / 2 + FAN_SLACK as usize;
+        // Compact when a quarter is garbage, or instead of growing the
+        // allocation when an eighth is (compacting costs what moving it would).
+        let grows = self.fans.len() + cap > self.fans.capacity();
+        if self.fan_garbage > self.fans.len() / 4
+            || (grows && self.fan_garbage > self.fans.len() / 8)
+        {
+            self.compact_fans();
+        }
+        // Grow by a quarter rather than double: still amortised O(1), and the
+        // array (the largest per-triangle structure) stays near its live size.
+        if self.fans.len() + cap > self.fans.capacity() {
+            self.fans.reserve_exact(cap.max(self.fans.len() / 4));
+        }
+        let sv = self.fan_slot[v as usize].start as usize;
+        let su = self.fan_slot[u as usize].start as usize;
+        let start = self.fans.len();
+        for i in 0..lv {
+            let t = self.fans[sv + i];
+            if self.tri[t as usize][0] != DEAD {
+                self.fans.push(t);
+            }
+        }
+        for i in 0..lu {
+            let t = self.fans[su + i];
+            if self.tri[t as usize][0] != DEAD {
+                self.fans.push(t);
+            }
+        }
+        self.fans.resize(start + cap, DEAD);
+        self.fan_garbage += self.fan_slot[v as usize].cap as usize;
+        self.fan_slot[v as usize].start = start as u32;
+        self.fan_slot[v as usize].cap = cap as u32;
+    }
+
+    /// Last step of [`Self::collapse`]: `u` is dead (complex, off the boundary).
+    /// After a non-edge contraction `v` becomes complex (unless locked) and
+    /// inherits `u`'s boundary flag; after an edge collapse the kinds are unchanged
+    /// when `u`, `v` and the `apexes` were all manifold, otherwise `v` and the
+    /// apexes are classified again and the apexes whose kind or boundary flag
+    /// changed are recorded ([`Self::kind_changes`]). A `v` left with an empty fan
+    /// (`new_len`) is complex.
+    #[inline(always)]
+    fn update_kinds(&mut self, u: u32, v: u32, apexes: [u32; 2], non_edge: bool, new_len: usize) {
         let ku = self.kind[u as usize];
         let all_manifold = ku == VertexKind::Manifold
             && self.kind[v as usize] == VertexKind::Manifold
-            && opp
+            && apexes
                 .iter()
                 .all(|&x| x == DEAD || self.kind[x as usize] == VertexKind::Manifold);
         let boundary_u = self.boundary[u as usize];
@@ -1516,7 +1546,7 @@ impl Surface {
             self.boundary[v as usize] |= boundary_u;
         } else if !all_manifold {
             self.classify(v);
-            for (i, x) in opp.into_iter().enumerate() {
+            for (i, x) in apexes.into_iter().enumerate() {
                 if x != DEAD {
                     let before = (self.kind[x as usize], self.boundary[x as usize]);
                     self.classify(x);
@@ -1528,19 +1558,6 @@ impl Surface {
         }
         if new_len == 0 {
             self.kind[v as usize] = VertexKind::Complex;
-        }
-
-        CollapseRecord {
-            removed: u,
-            kept: v,
-            removed_position,
-            kept_old_position,
-            position: p,
-            removed_triangles,
-            apexes: opp,
-            non_edge,
-            cost: 0.0,
-            error: 0.0,
         }
     }
 
@@ -1721,6 +1738,148 @@ impl Surface {
 /// Marks every triangle that repeats an earlier one over the same three points (any
 /// order or winding) [`DEAD`]; returns how many. `tri` is ordered by smallest point and
 /// `ends[m]` is where point `m`'s triangles end, so copies are in one group.
+/// The input's triangles that [`Surface::build`] keeps, in input order: as point
+/// triples, with their wedges (canonical input vertices, when the mesh has
+/// attributes) and groups.
+struct KeptTriangles {
+    tri: Vec<[u32; 3]>,
+    wedge: Option<Vec<[u32; 3]>>,
+    group: Option<Vec<u32>>,
+    /// `count[m + 1]`: how many of them have `m` as their smallest point.
+    count: Vec<u32>,
+}
+
+/// The triangles of `mesh` but those with a repeated point (after welding:
+/// `point_of` maps a vertex to its point, `canonical` to its wedge when the mesh
+/// has attributes) or exactly zero area (at the points' positions `pos`), which
+/// are counted in `repair`.
+fn keep_nondegenerate(
+    mesh: &Mesh,
+    canonical: Option<Vec<u32>>,
+    point_of: &[u32],
+    pos: &[[f32; 3]],
+    repair: &mut Repair,
+) -> KeptTriangles {
+    let np = pos.len();
+    let mut kept = Vec::with_capacity(mesh.triangles.len());
+    let mut kept_wedge = canonical
+        .is_some()
+        .then(|| Vec::with_capacity(mesh.triangles.len()));
+    let mut kept_group = mesh
+        .groups
+        .as_ref()
+        .map(|_| Vec::with_capacity(mesh.triangles.len()));
+    let mut count = vec![0u32; np + 1];
+    for (ti, t) in mesh.triangles.iter().enumerate() {
+        let w = match &canonical {
+            Some(c) => t.map(|v| c[v as usize]),
+            None => *t,
+        };
+        let p = w.map(|v| point_of[v as usize]);
+        if p[0] == p[1] || p[1] == p[2] || p[0] == p[2] {
+            repair.degenerate_triangles += 1;
+            continue;
+        }
+        let (a, b, c) = (
+            f64x3(pos[p[0] as usize]),
+            f64x3(pos[p[1] as usize]),
+            f64x3(pos[p[2] as usize]),
+        );
+        if cross(sub(b, a), sub(c, a)) == [0.0; 3] {
+            repair.degenerate_triangles += 1;
+            continue;
+        }
+        count[p[0].min(p[1]).min(p[2]) as usize + 1] += 1;
+        kept.push(p);
+        if let Some(tw) = &mut kept_wedge {
+            tw.push(w);
+        }
+        if let (Some(tg), Some(g)) = (&mut kept_group, &mesh.groups) {
+            tg.push(g[ti]);
+        }
+    }
+    KeptTriangles {
+        tri: kept,
+        wedge: kept_wedge,
+        group: kept_group,
+        count,
+    }
+}
+
+/// The kept triangles ordered by their smallest point ([`sort_by_smallest_point`]).
+struct SortedTriangles {
+    tri: Vec<[u32; 3]>,
+    wedge: Option<Vec<[u32; 3]>>,
+    group: Option<Vec<u32>>,
+    /// `ends[m]`: the end of point `m`'s triangles (the start of `m + 1`'s), for
+    /// each of the `np` points (one entry more, unused).
+    ends: Vec<u32>,
+}
+
+/// Orders the kept triangles (and their wedges and groups) of the `np` points by
+/// their smallest point, a stable counting sort in O(n): the triangles around a
+/// point then sit close together in memory, which is what every fan walk touches,
+/// and copies of one triangle sit in one group.
+fn sort_by_smallest_point(kept: KeptTriangles, np: usize) -> SortedTriangles {
+    let mut count = kept.count;
+    for i in 0..np {
+        count[i + 1] += count[i];
+    }
+    let n = kept.tri.len();
+    let mut tri = vec![[0u32; 3]; n];
+    let mut dest = Vec::with_capacity(n);
+    for t in &kept.tri {
+        let m = t[0].min(t[1]).min(t[2]) as usize;
+        let d = count[m];
+        count[m] += 1;
+        tri[d as usize] = *t;
+        dest.push(d);
+    }
+    drop(kept.tri);
+    // `count[m]` is now the end of point `m`'s group (and the start of `m + 1`'s).
+    let scatter = |v: Vec<[u32; 3]>| {
+        let mut out = vec![[0u32; 3]; n];
+        for (&d, x) in dest.iter().zip(v) {
+            out[d as usize] = x;
+        }
+        out
+    };
+    let tri_wedge = kept.wedge.map(scatter);
+    let tri_group = kept.group.map(|v| {
+        let mut out = vec![0u32; n];
+        for (&d, x) in dest.iter().zip(v) {
+            out[d as usize] = x;
+        }
+        out
+    });
+    SortedTriangles {
+        tri,
+        wedge: tri_wedge,
+        group: tri_group,
+        ends: count,
+    }
+}
+
+/// The diagonal's length and the center of the bounding box `bounds` (0 and the
+/// origin for none); the diagonal as `Mesh::bbox_diagonal` computes it.
+fn diagonal_and_center(bounds: Option<([f32; 3], [f32; 3])>) -> (f64, [f64; 3]) {
+    bounds.map_or((0.0, [0.0; 3]), |(lo, hi)| {
+        let diag = (0..3)
+            .map(|k| {
+                let d = f64::from(hi[k]) - f64::from(lo[k]);
+                d * d
+            })
+            .sum::<f64>()
+            .sqrt();
+        let center = [
+            0.5 * (f64::from(lo[0]) + f64::from(hi[0])),
+            0.5 * (f64::from(lo[1]) + f64::from(hi[1])),
+            0.5 * (f64::from(lo[2]) + f64::from(hi[2])),
+        ];
+        (diag, center)
+    })
+}
+
 fn remove_duplicates(tri: &mut [[u32; 3]], ends: &[u32]) -> usize {
     let mut dups = 0;
     let mut keys: Vec<(u64, u32)> = Vec::new();

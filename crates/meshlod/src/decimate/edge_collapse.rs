@@ -51,7 +51,7 @@
 use super::heap::{Heap, Item};
 use super::{Observer, Outcome, Rejections, StopReason, StopRule};
 use crate::collapse::{Merge, Moves, OperatorLimits, Preview, Reject, Surface};
-use crate::cost::CostModel;
+use crate::cost::{Candidate, CostModel};
 use crate::filter::Filter;
 
 /// Settings of [`run`].
@@ -285,6 +285,369 @@ impl<C: CostModel + ?Sized> Driver<'_, C> {
             && self.surface.is_alive(a)
             && self.surface.is_alive(b)
     }
+
+    /// The queue ran dry before the target (step 6 of the module docs). When the
+    /// last scan performed a collapse and re-scans are left, queues every pair
+    /// again (the parked ones included, so they are forgotten) and returns `true`;
+    /// otherwise sets the stop reason and its sentence and returns `false`.
+    #[inline(always)]
+    fn ran_dry(
+        &mut self,
+        stop: &StopRule,
+        scan: &mut ScanCounts,
+        parked: &mut Parked,
+        out: &mut Outcome,
+    ) -> bool {
+        if scan.collapses > 0 && out.rescans < MAX_RESCANS {
+            out.rescans += 1;
+            // Every pair is queued again, the parked ones included, and the
+            // costs start low again: so does the retry threshold.
+            parked.reset();
+            *scan = ScanCounts::default();
+            self.push_all();
+            return true;
+        }
+        if scan.error_blocked > 0 {
+            out.stop_reason = StopReason::MaxError;
+            out.stop_detail = format!(
+                "every remaining collapse would exceed the maximum error ({:.6e})",
+                stop.max_error.unwrap_or(0.0)
+            );
+        } else {
+            out.stop_reason = StopReason::NoLegalCollapse;
+            out.stop_detail = no_legal_collapse_detail(self.surface, &out.rejections);
+        }
+        false
+    }
+
+    /// Retries the parked pairs (step 4): puts the popped entry `e` back, then
+    /// evaluates every parked pair whose points are alive and queues it again, and
+    /// raises the retry threshold to `e`'s cost.
+    #[inline(always)]
+    fn retry_parked(&mut self, e: Item, parked: &mut Parked) {
+        self.heap.push(e);
+        parked.pairs.sort_unstable();
+        parked.pairs.dedup();
+        for (a, b) in parked.pairs.drain(..) {
+            if self.surface.is_alive(a) && self.surface.is_alive(b) {
+                if let Some(x) = self.entry(a, b) {
+                    self.heap.push(x);
+                }
+            }
+        }
+        parked.min = f32::INFINITY;
+        parked.retried_at = f32::from_bits(e.cost_bits);
+    }
+
+    /// Bookkeeping of popped entry `e` (moves `m`) that the operator's check
+    /// rejected with `r`: a merged placement that folds over or degenerates may
+    /// still be fine as a half-edge collapse onto either end, so that is queued as
+    /// a fallback entry at its own cost; the rejection is counted; and the pair is
+    /// parked for a retry unless the reason is one no neighbouring collapse can
+    /// lift (a point's kind, a UV seam).
+    #[inline(always)]
+    fn check_rejected(
+        &mut self,
+        e: Item,
+        m: &Moves,
+        r: Reject,
+        rejections: &mut Rejections,
+        parked: &mut Parked,
+    ) {
+        let endpoint_only = e.stamp & 1 == 1;
+        if !endpoint_only
+            && m.merge != Merge::No
+            && matches!(r, Reject::FoldOver | Reject::Degenerate)
+        {
+            if let Some(alt) = self.entry_with(e.a, e.b, true) {
+                self.heap.push(alt);
+            }
+        }
+        count_rejection(rejections, r);
+        if !matches!(r, Reject::Kind | Reject::Seam) {
+            parked.park(e.a, e.b, f32::from_bits(e.cost_bits));
+        }
+    }
+
+    /// Prefetches once the check has accepted a collapse: the second stage for the
+    /// next pop (its fans), and the points whose pairs are re-queued after this
+    /// collapse (the corners of the triangles that change), so their loads overlap
+    /// the filters and the collapse instead of stalling the re-queue.
+    #[inline(always)]
+    fn prefetch_after_check(&self, preview: &Preview) {
+        // Second stage for the next pop: its fans.
+        if let Some(&n) = self.heap.peek_band() {
+            self.surface.prefetch_fans_hint(n.a, n.b);
+        }
+        // Around an interior fan each neighbour follows the moving corner in
+        // exactly one triangle, so that corner alone names each of them once (a
+        // border fan misses one, and when `v` stays put its own fan is not among
+        // the changed triangles: a hint may miss some).
+        for ch in &preview.changed {
+            let tt = self.surface.triangle(ch.triangle);
+            self.prefetch_points([tt[(usize::from(ch.corner) + 1) % 3]]);
+        }
+    }
+
+    /// Runs the filters on the collapse the check accepted (`c`, popped as `e`) and
+    /// confirms its priority. Returns the cost to record when it goes ahead, or
+    /// `None` when a filter vetoed it (counted and parked, step 4) or its exact key
+    /// is above the queued one (queued again at that key, step 2; counted as a
+    /// filter rejection when a soft filter raised it, step 5).
+    #[inline(always)]
+    fn screen(
+        &mut self,
+        e: Item,
+        c: &Candidate,
+        preview: &Preview,
+        rejections: &mut Rejections,
+        parked: &mut Parked,
+    ) -> Option<f64> {
+        let mut vetoed = false;
+        let mut penalised = false;
+        for f in self.filters {
+            if !f.allow(self.surface, preview) {
+                if f.is_soft() {
+                    penalised = true;
+                    continue;
+                }
+                vetoed = true;
+                break;
+            }
+        }
+        if vetoed {
+            rejections.filter += 1;
+            parked.park(e.a, e.b, f32::from_bits(e.cost_bits));
+            return None;
+        }
+        // Lazy keys: the exact priority may be higher than the queued one.
+        let mut exact = self.cost.confirm(self.surface, c);
+        if penalised {
+            // A soft filter's refusal is a priority, not a veto (see
+            // `SOFT_PENALTY`).
+            // (A zero-cost collapse goes ahead: it changes no shape. Holding
+            // it back at the smallest positive key instead raised fandisk's
+            // maxima, at 10% by 7%.)
+            exact = exact.max(c.cost * SOFT_PENALTY);
+        }
+        let requeued = Item { cost_bits: 0, ..e }.with_cost(exact * self.key_scale);
+        if exact > c.cost && requeued.cost_bits > e.cost_bits {
+            if penalised {
+                rejections.filter += 1;
+            }
+            self.heap.push(requeued);
+            return None;
+        }
+        Some(exact)
+    }
+
+    /// Performs collapse `c` at `p` (the position as stored) with priority `exact`,
+    /// tells the cost model and the observer, adds it to the outcome's counts and
+    /// re-queues what it changed ([`Self::requeue_after`]).
+    #[inline(always)]
+    fn perform(
+        &mut self,
+        c: &Candidate,
+        p: [f32; 3],
+        exact: f64,
+        observer: &mut dyn Observer,
+        out: &mut Outcome,
+    ) {
+        observer.before_collapse(self.surface, c.removed, c.kept);
+        let mut record = self.surface.collapse(c.removed, c.kept, p);
+        record.cost = exact;
+        record.error = c.error;
+        self.cost.collapsed(self.surface, &record);
+        out.collapses += 1;
+        if record.non_edge {
+            out.non_edge_contractions += 1;
+        }
+        out.max_error = out.max_error.max(record.error);
+        observer.collapsed(&record);
+        if out.collapses % PROGRESS_EVERY == 0 {
+            observer.progress(self.surface.live_triangles());
+        }
+        self.requeue_after(record.removed, record.kept);
+    }
+
+    /// After `u` was merged into `v` (step 3): bumps both versions (the queued
+    /// entries of both go stale), hands `u`'s extra pairs to `v`, and re-queues the
+    /// pairs of the apexes whose kind changed and of `v`.
+    #[inline(always)]
+    fn requeue_after(&mut self, u: u32, v: u32) {
+        self.version[v as usize] = self.version[v as usize].wrapping_add(1);
+        // The removed point's entries go stale too: a point only ever dies as the
+        // removed end of a collapse (the operator lets nothing else vanish), so a
+        // matching stamp alone means both points are alive.
+        self.version[u as usize] = self.version[u as usize].wrapping_add(1);
+        if !self.partners.is_empty() {
+            self.forward[u as usize] = v;
+            let moved = std::mem::take(&mut self.partners[u as usize]);
+            self.partners[v as usize].extend(moved);
+        }
+        // Apexes whose kind may have changed get re-queued too.
+        for x in self.surface.kind_changes() {
+            if x != crate::collapse::DEAD && self.surface.is_alive(x) {
+                self.version[x as usize] = self.version[x as usize].wrapping_add(1);
+                self.push_around(x);
+            }
+        }
+        self.push_around(v);
+    }
+
+    /// Third prefetch stage for the next pop, after a collapse's re-queue: its
+    /// triangles, found through its fans (loaded by the second stage; if the
+    /// re-queue changed the top, this waits on the new top's records and fans).
+    /// The fourth, their corners, is `prefetch_pair` after the pop. Then its
+    /// points' records, versions and the cost model's state with ordinary loads.
+    #[inline(always)]
+    fn prefetch_next_triangles(&self) {
+        if let Some(&n) = self.heap.peek_band() {
+            self.surface.prefetch_triangles_hint(n.a, n.b);
+            self.load_points(&[n.a, n.b]);
+        }
+    }
+
+    /// Drops stale entries once the queue holds more than ~2 entries per live
+    /// triangle (there are ~1.5 live pairs per triangle): bounds its memory. With
+    /// `non_edge_pairs`, not before the queue has doubled since the last sweep
+    /// (`swept_to`, its length after that sweep).
+    #[inline(always)]
+    fn sweep_stale(&mut self, non_edge_pairs: bool, swept_to: &mut usize) {
+        let bound = 2 * self.surface.live_triangles() + STALE_SLACK;
+        let bound = if non_edge_pairs {
+            bound.max(2 * *swept_to)
+        } else {
+            bound
+        };
+        if self.heap.len() > bound {
+            // A slice, not the `Vec`: its pointer and length are then loaded once,
+            // not again for every entry.
+            let version = &self.version[..];
+            self.heap.retain(|e| {
+                let (a, b) = (e.a, e.b);
+                (version[a as usize].wrapping_add(version[b as usize]) << 1) | (e.stamp & 1)
+                    == e.stamp
+            });
+            *swept_to = self.heap.len();
+        }
+    }
+}
+
+/// Collapses and maximum-error rejections since the last re-scan (or the start).
+#[derive(Debug, Clone, Copy, Default)]
+struct ScanCounts {
+    /// Collapses performed: a re-scan is only worth it after one.
+    collapses: usize,
+    /// Candidates rejected for exceeding the maximum error: if any, a run that
+    /// stops for want of candidates stops for the maximum error.
+    error_blocked: usize,
+}
+
+/// Pairs rejected by a check that depends on their neighbourhood, for a retry
+/// once the queue's cost has grown past them (step 4 of the module docs, see
+/// [`RETRY_GROWTH`]).
+struct Parked {
+    /// The pairs, in rejection order (repeats possible).
+    pairs: Vec<(u32, u32)>,
+    /// The cheapest queued cost among them (`∞` when none).
+    min: f32,
+    /// The popped cost at the previous retry (0 at the start and after a re-scan).
+    retried_at: f32,
+}
+
+impl Parked {
+    fn new() -> Self {
+        Self {
+            pairs: Vec::new(),
+            min: f32::INFINITY,
+            retried_at: 0.0,
+        }
+    }
+
+    /// Forgets every pair and the threshold (a re-scan queues them all again, and
+    /// the costs start low again).
+    #[inline(always)]
+    fn reset(&mut self) {
+        self.pairs.clear();
+        self.min = f32::INFINITY;
+        self.retried_at = 0.0;
+    }
+
+    /// Remembers pair `(a, b)`, rejected when popped at queued cost `cost`.
+    #[inline(always)]
+    fn park(&mut self, a: u32, b: u32, cost: f32) {
+        self.pairs.push((a, b));
+        self.min = self.min.min(cost);
+    }
+
+    /// Whether a pop at cost `cost` is [`RETRY_GROWTH`] times above the cheapest
+    /// parked pair and the previous retry: then the parked pairs are retried first.
+    #[inline(always)]
+    fn due(&self, cost: f32) -> bool {
+        cost > RETRY_GROWTH * self.min && cost > RETRY_GROWTH * self.retried_at
+    }
+}
+
+/// Adds a rejection by the operator's check to its reason's count.
+#[inline(always)]
+fn count_rejection(rj: &mut Rejections, r: Reject) {
+    match r {
+        Reject::Kind => rj.kind += 1,
+        Reject::NonManifoldEdge => rj.non_manifold_edge += 1,
+        Reject::Link => rj.link += 1,
+        Reject::Duplicate => rj.duplicate += 1,
+        Reject::Seam => rj.seam += 1,
+        Reject::FoldOver => rj.fold_over += 1,
+        Reject::Degenerate => rj.degenerate += 1,
+        Reject::Pair => rj.pair += 1,
+    }
+}
+
+/// The stop sentence when no legal collapse is left: how many of the live points
+/// may not move, and the rejections so far by reason.
+fn no_legal_collapse_detail(surface: &Surface, r: &Rejections) -> String {
+    let (mut live, mut fixed) = (0usize, 0usize);
+    for p in 0..surface.point_count() as u32 {
+        if surface.is_alive(p) {
+            live += 1;
+            if !crate::collapse::is_movable(surface.kind(p)) {
+                fixed += 1;
+            }
+        }
+    }
+    format!(
+        "no legal collapse left: {fixed} of the {live} points left may not move \
+         (seam or material-border junctions, non-manifold or locked points); \
+         rejected so far: link {}, fold-over {}, degenerate {}, duplicate {}, \
+         seam {}, kind {}, non-manifold edge {}, filters {}",
+        r.link,
+        r.fold_over,
+        r.degenerate,
+        r.duplicate,
+        r.seam,
+        r.kind,
+        r.non_manifold_edge,
+        r.filter
+    )
+}
+
+/// The extra non-edge pairs as lists of partners (each pair once, under its
+/// smaller point) and the identity forwarding map that follows merged points;
+/// both empty when there are none or non-edge pairs are not allowed.
+fn extra_partners(np: usize, options: &EdgeCollapseOptions) -> (Vec<Vec<u32>>, Vec<u32>) {
+    let mut partners: Vec<Vec<u32>> = Vec::new();
+    let mut forward = Vec::new();
+    if !options.extra_pairs.is_empty() && options.limits.allow_non_edge {
+        partners = vec![Vec::new(); np];
+        forward = (0..np as u32).collect();
+        for &[a, b] in &options.extra_pairs {
+            if (a as usize) < np && (b as usize) < np && a != b {
+                partners[a.min(b) as usize].push(a.max(b));
+            }
+        }
+    }
+    (partners, forward)
 }
 
 /// Simplifies `surface` in place with `cost` and `filters` until `options.stop`
@@ -303,6 +666,11 @@ pub fn run<C: CostModel + ?Sized>(
     crate::isa::dispatch!(run_impl(surface, cost, filters, options, observer))
 }
 
+/// The whole run (see the module docs): the setup, then the queue loop, whose
+/// steps are methods of [`Driver`]. Each step the loop runs per pop is
+/// `#[inline(always)]`, so that it is compiled into the AVX2 copy `run` dispatches
+/// to; `extra_partners` (setup) and `no_legal_collapse_detail` (the stop sentence)
+/// run once and are plain functions.
 #[inline(always)]
 fn run_impl<C: CostModel + ?Sized>(
     surface: &mut Surface,
@@ -332,22 +700,12 @@ fn run_impl<C: CostModel + ?Sized>(
     cost.init(surface);
     let np = surface.point_count();
     let surface_triangles = surface.live_triangles();
-    let mut partners: Vec<Vec<u32>> = Vec::new();
-    let mut forward = Vec::new();
-    if !options.extra_pairs.is_empty() && options.limits.allow_non_edge {
-        partners = vec![Vec::new(); np];
-        forward = (0..np as u32).collect();
-        for &[a, b] in &options.extra_pairs {
-            if (a as usize) < np && (b as usize) < np && a != b {
-                partners[a.min(b) as usize].push(a.max(b));
-            }
-        }
-    }
+    let (partners, forward) = extra_partners(np, options);
     let scale = key_scale(cost.cost_length_power(), surface.diagonal());
     // With non-edge pairs a point has more live pairs than its triangles' edges, so
-    // the queue can stay above the sweep's bound below even when nothing in it is
-    // stale; then a sweep waits until the queue has doubled since the last one
-    // (amortised O(1) per entry instead of a sweep per collapse).
+    // the queue can stay above the sweep's bound even when nothing in it is stale;
+    // then a sweep waits until the queue has doubled since the last one (amortised
+    // O(1) per entry instead of a sweep per collapse).
     let non_edge_pairs = !options.extra_pairs.is_empty() && options.limits.allow_non_edge;
     let mut swept_to = 0usize;
     let mut d = Driver {
@@ -356,8 +714,8 @@ fn run_impl<C: CostModel + ?Sized>(
         filters,
         limits: options.limits,
         version: vec![0; np],
-        // Room for what the stale-entry sweep below allows (2 per live triangle),
-        // so the overflow list never reallocates on the way.
+        // Room for what the stale-entry sweep allows (2 per live triangle), so the
+        // overflow list never reallocates on the way.
         heap: Heap::with_capacity(2 * surface_triangles + STALE_SLACK + 1024),
         key_scale: scale,
         partners,
@@ -366,13 +724,8 @@ fn run_impl<C: CostModel + ?Sized>(
     };
     d.push_all();
     let mut preview = Preview::default();
-    let mut since_scan = 0usize;
-    let mut error_blocked_since_scan = 0usize;
-    // Pairs rejected by a check that depends on their neighbourhood, for a retry
-    // once the queue's cost has grown past them (see `RETRY_GROWTH`).
-    let mut parked: Vec<(u32, u32)> = Vec::new();
-    let mut parked_min = f32::INFINITY;
-    let mut retried_at = 0.0f32;
+    let mut scan = ScanCounts::default();
+    let mut parked = Parked::new();
     loop {
         if d.surface.live_triangles() <= stop.target_triangles {
             out.stop_reason = StopReason::TargetReached;
@@ -380,50 +733,8 @@ fn run_impl<C: CostModel + ?Sized>(
             break;
         }
         let Some(e) = d.heap.pop() else {
-            if since_scan > 0 && out.rescans < MAX_RESCANS {
-                out.rescans += 1;
-                // Every pair is queued again, the parked ones included, and the
-                // costs start low again: so does the retry threshold.
-                parked.clear();
-                parked_min = f32::INFINITY;
-                retried_at = 0.0;
-                since_scan = 0;
-                error_blocked_since_scan = 0;
-                d.push_all();
+            if d.ran_dry(&stop, &mut scan, &mut parked, &mut out) {
                 continue;
-            }
-            if error_blocked_since_scan > 0 {
-                out.stop_reason = StopReason::MaxError;
-                out.stop_detail = format!(
-                    "every remaining collapse would exceed the maximum error ({:.6e})",
-                    stop.max_error.unwrap_or(0.0)
-                );
-            } else {
-                out.stop_reason = StopReason::NoLegalCollapse;
-                let (mut live, mut fixed) = (0usize, 0usize);
-                for p in 0..d.surface.point_count() as u32 {
-                    if d.surface.is_alive(p) {
-                        live += 1;
-                        if !crate::collapse::is_movable(d.surface.kind(p)) {
-                            fixed += 1;
-                        }
-                    }
-                }
-                let r = &out.rejections;
-                out.stop_detail = format!(
-                    "no legal collapse left: {fixed} of the {live} points left may not move \
-                     (seam or material-border junctions, non-manifold or locked points); \
-                     rejected so far: link {}, fold-over {}, degenerate {}, duplicate {}, \
-                     seam {}, kind {}, non-manifold edge {}, filters {}",
-                    r.link,
-                    r.fold_over,
-                    r.degenerate,
-                    r.duplicate,
-                    r.seam,
-                    r.kind,
-                    r.non_manifold_edge,
-                    r.filter
-                );
             }
             break;
         };
@@ -439,28 +750,15 @@ fn run_impl<C: CostModel + ?Sized>(
         if !d.valid(&e) {
             continue;
         }
-        let cost_e = f32::from_bits(e.cost_bits);
-        if cost_e > RETRY_GROWTH * parked_min && cost_e > RETRY_GROWTH * retried_at {
+        if parked.due(f32::from_bits(e.cost_bits)) {
             // Cheaper pairs were rejected since the last retry and their
             // neighbourhoods may have changed since: queue them again first.
-            d.heap.push(e);
-            parked.sort_unstable();
-            parked.dedup();
-            for (a, b) in parked.drain(..) {
-                if d.surface.is_alive(a) && d.surface.is_alive(b) {
-                    if let Some(x) = d.entry(a, b) {
-                        d.heap.push(x);
-                    }
-                }
-            }
-            parked_min = f32::INFINITY;
-            retried_at = cost_e;
+            d.retry_parked(e, &mut parked);
             out.retries += 1;
             continue;
         }
         // Recompute the candidate (same inputs as at push time, so the same result).
-        let endpoint_only = e.stamp & 1 == 1;
-        let Some(m) = d.moves(e.a, e.b, endpoint_only) else {
+        let Some(m) = d.moves(e.a, e.b, e.stamp & 1 == 1) else {
             continue;
         };
         let Some(c) = d.cost.evaluate(d.surface, e.a, e.b, &m) else {
@@ -468,7 +766,7 @@ fn run_impl<C: CostModel + ?Sized>(
         };
         if stop.max_error.is_some_and(|me| c.error > me) {
             out.rejections.max_error += 1;
-            error_blocked_since_scan += 1;
+            scan.error_blocked += 1;
             continue;
         }
         let p = c.position.map(|x| x as f32);
@@ -478,147 +776,17 @@ fn run_impl<C: CostModel + ?Sized>(
             .surface
             .check(c.removed, c.kept, p, &d.limits, &mut preview)
         {
-            // A merged placement that folds over or degenerates may still be fine
-            // as a half-edge collapse onto either end: queue that as a fallback
-            // entry, at its own cost.
-            if !endpoint_only
-                && m.merge != Merge::No
-                && matches!(r, Reject::FoldOver | Reject::Degenerate)
-            {
-                if let Some(alt) = d.entry_with(e.a, e.b, true) {
-                    d.heap.push(alt);
-                }
-            }
-            let rj = &mut out.rejections;
-            match r {
-                Reject::Kind => rj.kind += 1,
-                Reject::NonManifoldEdge => rj.non_manifold_edge += 1,
-                Reject::Link => rj.link += 1,
-                Reject::Duplicate => rj.duplicate += 1,
-                Reject::Seam => rj.seam += 1,
-                Reject::FoldOver => rj.fold_over += 1,
-                Reject::Degenerate => rj.degenerate += 1,
-                Reject::Pair => rj.pair += 1,
-            }
-            if !matches!(r, Reject::Kind | Reject::Seam) {
-                parked.push((e.a, e.b));
-                parked_min = parked_min.min(cost_e);
-            }
+            d.check_rejected(e, &m, r, &mut out.rejections, &mut parked);
             continue;
         }
-        // Second stage for the next pop: its fans.
-        if let Some(&n) = d.heap.peek_band() {
-            d.surface.prefetch_fans_hint(n.a, n.b);
-        }
-        // The points whose pairs are re-queued after this collapse (the corners of
-        // the triangles that change): start loading their state now, so the loads
-        // overlap the filters and the collapse instead of stalling the re-queue.
-        // Around an interior fan each neighbour follows the moving corner in
-        // exactly one triangle, so that corner alone names each of them once (a
-        // border fan misses one, and when `v` stays put its own fan is not among
-        // the changed triangles: a hint may miss some).
-        for ch in &preview.changed {
-            let tt = d.surface.triangle(ch.triangle);
-            d.prefetch_points([tt[(usize::from(ch.corner) + 1) % 3]]);
-        }
-        let mut vetoed = false;
-        let mut penalised = false;
-        for f in d.filters {
-            if !f.allow(d.surface, &preview) {
-                if f.is_soft() {
-                    penalised = true;
-                    continue;
-                }
-                vetoed = true;
-                break;
-            }
-        }
-        if vetoed {
-            out.rejections.filter += 1;
-            parked.push((e.a, e.b));
-            parked_min = parked_min.min(cost_e);
+        d.prefetch_after_check(&preview);
+        let Some(exact) = d.screen(e, &c, &preview, &mut out.rejections, &mut parked) else {
             continue;
-        }
-        // Lazy keys: the exact priority may be higher than the queued one.
-        let mut exact = d.cost.confirm(d.surface, &c);
-        if penalised {
-            // A soft filter's refusal is a priority, not a veto (see
-            // `SOFT_PENALTY`).
-            // (A zero-cost collapse goes ahead: it changes no shape. Holding
-            // it back at the smallest positive key instead raised fandisk's
-            // maxima, at 10% by 7%.)
-            exact = exact.max(c.cost * SOFT_PENALTY);
-        }
-        let requeued = Item { cost_bits: 0, ..e }.with_cost(exact * d.key_scale);
-        if exact > c.cost && requeued.cost_bits > e.cost_bits {
-            if penalised {
-                out.rejections.filter += 1;
-            }
-            d.heap.push(requeued);
-            continue;
-        }
-        observer.before_collapse(d.surface, c.removed, c.kept);
-        let mut record = d.surface.collapse(c.removed, c.kept, p);
-        record.cost = exact;
-        record.error = c.error;
-        d.cost.collapsed(d.surface, &record);
-        out.collapses += 1;
-        since_scan += 1;
-        if record.non_edge {
-            out.non_edge_contractions += 1;
-        }
-        out.max_error = out.max_error.max(record.error);
-        observer.collapsed(&record);
-        if out.collapses % PROGRESS_EVERY == 0 {
-            observer.progress(d.surface.live_triangles());
-        }
-        let (u, v) = (record.removed, record.kept);
-        d.version[v as usize] = d.version[v as usize].wrapping_add(1);
-        // The removed point's entries go stale too: a point only ever dies as the
-        // removed end of a collapse (the operator lets nothing else vanish), so a
-        // matching stamp alone means both points are alive.
-        d.version[u as usize] = d.version[u as usize].wrapping_add(1);
-        if !d.partners.is_empty() {
-            d.forward[u as usize] = v;
-            let moved = std::mem::take(&mut d.partners[u as usize]);
-            d.partners[v as usize].extend(moved);
-        }
-        // Apexes whose kind may have changed get re-queued too.
-        for x in d.surface.kind_changes() {
-            if x != crate::collapse::DEAD && d.surface.is_alive(x) {
-                d.version[x as usize] = d.version[x as usize].wrapping_add(1);
-                d.push_around(x);
-            }
-        }
-        d.push_around(v);
-        // Third stage for the next pop: its triangles, found through its fans
-        // (loaded by the second stage; if this collapse's re-queues changed the
-        // top, this waits on the new top's records and fans). The fourth, their
-        // corners, is `prefetch_pair` after the pop. Then its points' records,
-        // versions and quadrics with ordinary loads.
-        if let Some(&n) = d.heap.peek_band() {
-            d.surface.prefetch_triangles_hint(n.a, n.b);
-            d.load_points(&[n.a, n.b]);
-        }
-        // Drop stale entries once the queue holds more than ~2 entries per live
-        // triangle (there are ~1.5 live pairs per triangle): bounds its memory.
-        let bound = 2 * d.surface.live_triangles() + STALE_SLACK;
-        let bound = if non_edge_pairs {
-            bound.max(2 * swept_to)
-        } else {
-            bound
         };
-        if d.heap.len() > bound {
-            // A slice, not the `Vec`: its pointer and length are then loaded once,
-            // not again for every entry.
-            let version = &d.version[..];
-            d.heap.retain(|e| {
-                let (a, b) = (e.a, e.b);
-                (version[a as usize].wrapping_add(version[b as usize]) << 1) | (e.stamp & 1)
-                    == e.stamp
-            });
-            swept_to = d.heap.len();
-        }
+        d.perform(&c, p, exact, observer, &mut out);
+        scan.collapses += 1;
+        d.prefetch_next_triangles();
+        d.sweep_stale(non_edge_pairs, &mut swept_to);
     }
     observer.progress(d.surface.live_triangles());
     out

@@ -123,7 +123,6 @@ pub(super) fn simplify_chunked(
         let bound = inner.max_error.map_or(t, |e| e.resolve(diag).min(t));
         inner.max_error = Some(Distance::Absolute(bound));
     }
-    let t_chunks_run = Instant::now();
     let results = run_chunks(mesh, &part, &inner, ratio, pool.as_ref(), observer);
     inner.max_error = options
         .max_error

@@ -1864,13 +1864,7 @@ fn sort_by_smallest_point(kept: KeptTriangles, np: usize) -> SortedTriangles {
 /// origin for none); the diagonal as `Mesh::bbox_diagonal` computes it.
 fn diagonal_and_center(bounds: Option<([f32; 3], [f32; 3])>) -> (f64, [f64; 3]) {
     bounds.map_or((0.0, [0.0; 3]), |(lo, hi)| {
-        let diag = (0..3)
-            .map(|k| {
-                let d = f64::from(hi[k]) - f64::from(lo[k]);
-                d * d
-            })
-            .sum::<f64>()
-            .sqrt();
+        let diag = crate::mesh::box_diagonal(lo, hi);
         let center = [
             0.5 * (f64::from(lo[0]) + f64::from(hi[0])),
             0.5 * (f64::from(lo[1]) + f64::from(hi[1])),

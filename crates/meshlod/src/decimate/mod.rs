@@ -120,6 +120,20 @@ pub struct Rejections {
 }
 
 impl Rejections {
+    /// Adds the counts of `other` (e.g. the runs of several chunks).
+    pub fn add(&mut self, other: &Self) {
+        self.kind += other.kind;
+        self.non_manifold_edge += other.non_manifold_edge;
+        self.link += other.link;
+        self.duplicate += other.duplicate;
+        self.seam += other.seam;
+        self.fold_over += other.fold_over;
+        self.degenerate += other.degenerate;
+        self.pair += other.pair;
+        self.filter += other.filter;
+        self.max_error += other.max_error;
+    }
+
     /// Total of all counts.
     #[must_use]
     pub fn total(&self) -> u64 {

@@ -29,15 +29,8 @@ impl StreamSummary {
     /// The bounding-box diagonal (0 when empty), mesh units.
     #[must_use]
     pub fn bbox_diagonal(&self) -> f64 {
-        self.bbox.map_or(0.0, |(lo, hi)| {
-            (0..3)
-                .map(|k| {
-                    let d = f64::from(hi[k]) - f64::from(lo[k]);
-                    d * d
-                })
-                .sum::<f64>()
-                .sqrt()
-        })
+        self.bbox
+            .map_or(0.0, |(lo, hi)| crate::mesh::box_diagonal(lo, hi))
     }
 }
 

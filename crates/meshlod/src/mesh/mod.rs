@@ -26,6 +26,18 @@ pub use weld::Weld;
 
 use thiserror::Error;
 
+/// Length of the diagonal of the box from `lo` to `hi`, in the positions' units.
+#[must_use]
+pub fn box_diagonal(lo: [f32; 3], hi: [f32; 3]) -> f64 {
+    (0..3)
+        .map(|k| {
+            let d = f64::from(hi[k]) - f64::from(lo[k]);
+            d * d
+        })
+        .sum::<f64>()
+        .sqrt()
+}
+
 /// Per-vertex attribute streams. Every present stream has one entry per vertex
 /// (the length of [`Mesh::positions`]).
 #[derive(Debug, Clone, Default, PartialEq)]
@@ -430,15 +442,8 @@ impl Mesh {
     /// the mesh's units. This is the scale relative errors are measured against.
     #[must_use]
     pub fn bbox_diagonal(&self) -> f64 {
-        self.bounding_box(false).map_or(0.0, |(lo, hi)| {
-            (0..3)
-                .map(|k| {
-                    let d = f64::from(hi[k]) - f64::from(lo[k]);
-                    d * d
-                })
-                .sum::<f64>()
-                .sqrt()
-        })
+        self.bounding_box(false)
+            .map_or(0.0, |(lo, hi)| box_diagonal(lo, hi))
     }
 
     /// The spacing of 32-bit floats at the largest absolute coordinate, in the

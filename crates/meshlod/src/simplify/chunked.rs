@@ -30,7 +30,7 @@ use super::{
     decimate_mesh, refine, Decimated, Method, Passes, Phases, Placement, Report, Simplified,
     SimplifyError, SimplifyOptions,
 };
-use crate::decimate::{NoObserver, Observer, Outcome, Rejections, StopReason};
+use crate::decimate::{NoObserver, Observer, Outcome, StopReason};
 use crate::mesh::partition::{partition, Partition};
 use crate::mesh::{Distance, Mesh};
 use rayon::prelude::*;
@@ -258,30 +258,23 @@ fn sample_curves(
 fn error_for_count(curves: &[Curve], keep: f64) -> Option<f64> {
     let total: usize = curves.iter().map(|c| c.triangles).sum();
     let allowed = (keep * total as f64).floor() as usize;
-    // Per curve, its running maximum after each collapse and the triangles left.
-    let mut points: Vec<(f64, usize)> = Vec::new();
-    for c in curves {
+    // Per collapse of each curve: its running maximum error, the triangles left
+    // and the curve.
+    let mut points: Vec<(f64, usize, usize)> = Vec::new();
+    for (ci, c) in curves.iter().enumerate() {
         let (mut m, mut left) = (0.0f64, c.triangles);
         for &(removed, e) in &c.steps {
             m = m.max(e);
             left = left.saturating_sub(usize::from(removed));
-            points.push((m, left));
+            points.push((m, left, ci));
         }
     }
     // Triangles kept at error τ: per curve, the count after its last collapse
     // whose running maximum is ≤ τ. Sweep τ up over the maxima.
-    let mut idx: Vec<usize> = (0..points.len()).collect();
-    idx.sort_by(|&a, &b| points[a].0.total_cmp(&points[b].0));
+    points.sort_by(|a, b| a.0.total_cmp(&b.0));
     let mut kept = total;
-    // Each curve's count so far, found from the point's curve.
-    let mut owner = Vec::with_capacity(points.len());
-    for (ci, c) in curves.iter().enumerate() {
-        owner.extend(std::iter::repeat_n(ci, c.steps.len()));
-    }
     let mut current: Vec<usize> = curves.iter().map(|c| c.triangles).collect();
-    for &i in &idx {
-        let (m, left) = points[i];
-        let ci = owner[i];
+    for &(m, left, ci) in &points {
         if left < current[ci] {
             kept -= current[ci] - left;
             current[ci] = left;
@@ -454,7 +447,7 @@ fn chunked_report(run: ChunkedRun<'_>) -> Report {
     );
     let mut chunk_error = 0.0f64;
     for r in run.results {
-        add_rejections(&mut rejections, &r.outcome.rejections);
+        rejections.add(&r.outcome.rejections);
         collapses += r.outcome.collapses;
         retries += r.outcome.retries;
         rescans += r.outcome.rescans;
@@ -508,18 +501,4 @@ fn chunked_report(run: ChunkedRun<'_>) -> Report {
         cluster: None,
         phases: run.phases,
     }
-}
-
-/// Adds the counts of `b` to `a`.
-fn add_rejections(a: &mut Rejections, b: &Rejections) {
-    a.kind += b.kind;
-    a.non_manifold_edge += b.non_manifold_edge;
-    a.link += b.link;
-    a.duplicate += b.duplicate;
-    a.seam += b.seam;
-    a.fold_over += b.fold_over;
-    a.degenerate += b.degenerate;
-    a.pair += b.pair;
-    a.filter += b.filter;
-    a.max_error += b.max_error;
 }

@@ -18,6 +18,7 @@ macro_rules! out {
 
 mod heatmap;
 mod info;
+mod lod;
 mod measure;
 mod memory;
 mod pm;
@@ -48,6 +49,10 @@ enum Command {
     /// The everyday flags are listed by `--help`, grouped by method; the tuning
     /// options (thresholds and orders of each method) by `--help-tuning`.
     Simplify(Box<simplify::SimplifyArgs>),
+    /// Level-of-detail chain: LOD0 … LODn with measured errors and switch distances,
+    /// written to glTF with `MSFT_lod` (or one file per level); `lod select` picks
+    /// levels for a camera.
+    Lod(Box<lod::LodArgs>),
     /// Progressive meshes: build a .pmesh, extract a level.
     #[command(subcommand)]
     Pm(pm::PmCommand),
@@ -130,6 +135,7 @@ fn main() -> ExitCode {
         Command::Info(args) => info::run(&args),
         Command::Measure(args) => measure::run(&args),
         Command::Simplify(args) => simplify::run(&args),
+        Command::Lod(args) => lod::run(&args),
         Command::Pm(cmd) => pm::run(&cmd),
     };
     match result {

@@ -960,35 +960,6 @@ impl Aggregate {
     }
 }
 
-/// The largest factor by which `m` (column-major) stretches a length: the spectral
-/// norm of its linear part, by power iteration on `MᵀM` from each axis (one of
-/// them is never orthogonal to the largest eigenvector; 1 for a zero or
-/// non-finite matrix).
-fn stretch(m: &meshlod::io::Matrix4) -> f64 {
-    let a: [[f64; 3]; 3] = std::array::from_fn(|c| std::array::from_fn(|r| f64::from(m[c][r])));
-    // (MᵀM)_ij = column i · column j.
-    let g: [[f64; 3]; 3] =
-        std::array::from_fn(|i| std::array::from_fn(|j| (0..3).map(|k| a[i][k] * a[j][k]).sum()));
-    let mut largest = 0.0f64;
-    for axis in 0..3 {
-        let mut v: [f64; 3] = std::array::from_fn(|k| if k == axis { 1.0 } else { 0.0 });
-        for _ in 0..64 {
-            let w: [f64; 3] = std::array::from_fn(|i| (0..3).map(|j| g[i][j] * v[j]).sum());
-            let n = w.iter().map(|x| x * x).sum::<f64>().sqrt();
-            if !(n.is_finite() && n > 0.0) {
-                break;
-            }
-            largest = largest.max(n);
-            v = w.map(|x| x / n);
-        }
-    }
-    if largest > 0.0 {
-        largest.sqrt()
-    } else {
-        1.0
-    }
-}
-
 /// Simplifies every part of a glTF scene with the same ratio. Distances are the
 /// scene's (world) ones, the relative ones times its flattened diagonal: a part
 /// drawn with a scale works in its own units, so its bounds are divided by its
@@ -1031,7 +1002,7 @@ fn simplify_parts(
         let scale = part
             .instances
             .iter()
-            .map(stretch)
+            .map(meshlod::io::stretch)
             .fold(0.0, f64::max)
             .max(f64::MIN_POSITIVE);
         let local = |d: Option<Distance>| {
@@ -1175,24 +1146,5 @@ fn print_text(r: &CliReport) {
             ),
             None => out!("  memory       peak {:.1} MiB resident", mib(m.peak_rss_bytes)),
         }
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::stretch;
-    use meshlod::io::IDENTITY;
-
-    #[test]
-    fn stretch_is_the_largest_scale_of_a_transform() {
-        assert!((stretch(&IDENTITY) - 1.0).abs() < 1e-12);
-        // Scale (2, 5, 3), then a quarter turn about z, then a translation.
-        let mut m = IDENTITY;
-        m[0] = [0.0, 2.0, 0.0, 0.0];
-        m[1] = [-5.0, 0.0, 0.0, 0.0];
-        m[2] = [0.0, 0.0, 3.0, 0.0];
-        m[3] = [7.0, 8.0, 9.0, 1.0];
-        assert!((stretch(&m) - 5.0).abs() < 1e-9, "{}", stretch(&m));
-        assert!((stretch(&[[0.0; 4]; 4]) - 1.0).abs() < 1e-12);
     }
 }

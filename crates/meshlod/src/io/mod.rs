@@ -40,6 +40,35 @@ pub const IDENTITY: Matrix4 = [
     [0.0, 0.0, 0.0, 1.0],
 ];
 
+/// The largest factor by which `m` (column-major) stretches a length: the spectral
+/// norm of its linear part, by power iteration on `MᵀM` from each axis (one of
+/// them is never orthogonal to the largest eigenvector); 1 for a zero or
+/// non-finite matrix.
+#[must_use]
+pub fn stretch(m: &Matrix4) -> f64 {
+    let a: [[f64; 3]; 3] = std::array::from_fn(|c| std::array::from_fn(|r| f64::from(m[c][r])));
+    let g: [[f64; 3]; 3] =
+        std::array::from_fn(|i| std::array::from_fn(|j| (0..3).map(|k| a[i][k] * a[j][k]).sum()));
+    let mut largest = 0.0f64;
+    for axis in 0..3 {
+        let mut v: [f64; 3] = std::array::from_fn(|k| if k == axis { 1.0 } else { 0.0 });
+        for _ in 0..64 {
+            let w: [f64; 3] = std::array::from_fn(|i| (0..3).map(|j| g[i][j] * v[j]).sum());
+            let n = w.iter().map(|x| x * x).sum::<f64>().sqrt();
+            if !(n.is_finite() && n > 0.0) {
+                break;
+            }
+            largest = largest.max(n);
+            v = w.map(|x| x / n);
+        }
+    }
+    if largest > 0.0 {
+        largest.sqrt()
+    } else {
+        1.0
+    }
+}
+
 /// File formats, chosen by extension.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub enum Format {
@@ -483,4 +512,22 @@ pub enum WriteError {
 #[must_use]
 pub(crate) fn max_elements(data_len: usize, min_bytes: usize) -> u64 {
     (data_len / min_bytes.max(1)) as u64
+}
+
+#[cfg(test)]
+mod stretch_tests {
+    use super::{stretch, IDENTITY};
+
+    #[test]
+    fn stretch_is_the_largest_scale_of_a_transform() {
+        assert!((stretch(&IDENTITY) - 1.0).abs() < 1e-12);
+        // Scale (2, 5, 3), then a quarter turn about z, then a translation.
+        let mut m = IDENTITY;
+        m[0] = [0.0, 2.0, 0.0, 0.0];
+        m[1] = [-5.0, 0.0, 0.0, 0.0];
+        m[2] = [0.0, 0.0, 3.0, 0.0];
+        m[3] = [7.0, 8.0, 9.0, 1.0];
+        assert!((stretch(&m) - 5.0).abs() < 1e-9, "{}", stretch(&m));
+        assert!((stretch(&[[0.0; 4]; 4]) - 1.0).abs() < 1e-12);
+    }
 }

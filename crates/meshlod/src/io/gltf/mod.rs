@@ -65,6 +65,7 @@
 mod accessor;
 mod glb;
 mod json;
+mod lod;
 mod read;
 mod refs;
 /// Texture coordinates between glTF's convention (origin at the image's top left,
@@ -84,6 +85,8 @@ pub(crate) fn flip_v(mut uv: Vec<[f32; 2]>) -> Vec<[f32; 2]> {
 mod tests;
 mod uri;
 mod write;
+
+pub use lod::{add_lods, MeshLods};
 
 use super::{FormatError, Scene, WriteError};
 use crate::mesh::Mesh;
@@ -114,6 +117,13 @@ struct MeshSource {
     fingerprint: u64,
     /// One entry per glTF primitive, in order.
     primitives: Vec<PrimitiveSource>,
+    /// Write the part's geometry even when its fingerprint matches (a mesh added
+    /// to the document, e.g. a coarser level of detail).
+    rewrite: bool,
+    /// Base positions of a geomorph, one per vertex of the part's mesh: written as
+    /// `POSITION` with the mesh's own positions as the single morph target (weight 0
+    /// shows these, weight 1 the part's positions).
+    morph_from: Option<Vec<[f32; 3]>>,
 }
 
 /// How one glTF primitive became part of a part's mesh.

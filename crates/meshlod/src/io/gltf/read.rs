@@ -103,6 +103,8 @@ pub(super) fn read(data: &[u8], base_dir: Option<&Path>) -> Result<Scene, Format
         sources.push(MeshSource {
             fingerprint: fingerprint(&mesh),
             primitives,
+            rewrite: false,
+            morph_from: None,
         });
         parts.push(Part {
             name,

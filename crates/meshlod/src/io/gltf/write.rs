@@ -445,7 +445,7 @@ fn rebuild(scene: &Scene, src: &GltfSource) -> Result<(Value, Pool), FormatError
         if let Some(name) = &part.name {
             mesh.insert("name".into(), Value::from(name.as_str()));
         }
-        if fingerprint(&part.mesh) == source.fingerprint {
+        if !source.rewrite && fingerprint(&part.mesh) == source.fingerprint {
             continue;
         }
         let old = take_array(mesh, "primitives");
@@ -496,6 +496,11 @@ fn rewrite_primitives(
     let mut remap = vec![u32::MAX; mesh.positions.len()];
     let mut prims = Vec::new();
     let mut claimed = Vec::new();
+    let morph_base = source
+        .morph_from
+        .as_ref()
+        .filter(|f| f.len() == mesh.positions.len())
+        .map(|f| Mesh::from_triangles(f.clone(), mesh.triangles.clone()));
     for (ps, prim) in source.primitives.iter().zip(old) {
         let Some(g) = ps.group else {
             prims.push(prim);
@@ -505,7 +510,10 @@ fn rewrite_primitives(
         let Some(tris) = groups.get(&g) else {
             continue;
         };
-        let sub = extract(mesh, tris, ps.streams, &mut remap);
+        let mut sub = extract(mesh, tris, ps.streams, &mut remap);
+        let target = morph_base
+            .as_ref()
+            .map(|base| morph_target(pool, &mut sub, base, tris, &mut remap));
         let (attrs, indices) = geometry(pool, &sub, ps.color_rgb, ps.joints_u8);
         let mut prim = match prim {
             Value::Object(o) => o,
@@ -514,17 +522,49 @@ fn rewrite_primitives(
         prim.remove("mode");
         prim.insert("attributes".into(), Value::Object(attrs));
         prim.insert("indices".into(), num(indices));
+        if let Some(t) = target {
+            prim.insert("targets".into(), json!([{ "POSITION": t }]));
+        }
         prims.push(Value::Object(prim));
     }
     for (g, tris) in &groups {
         if claimed.contains(g) {
             continue;
         }
-        let sub = extract(mesh, tris, Streams::ALL, &mut remap);
+        let mut sub = extract(mesh, tris, Streams::ALL, &mut remap);
+        let target = morph_base
+            .as_ref()
+            .map(|base| morph_target(pool, &mut sub, base, tris, &mut remap));
         let (attrs, indices) = geometry(pool, &sub, false, false);
-        prims.push(json!({ "attributes": attrs, "indices": indices }));
+        let mut prim = json!({ "attributes": attrs, "indices": indices });
+        if let Some(t) = target {
+            prim["targets"] = json!([{ "POSITION": t }]);
+        }
+        prims.push(prim);
     }
     prims
+}
+
+/// The geomorph of a primitive: `sub`'s positions become those of `base` (the
+/// part's mesh with the geomorph's base positions, extracted in the same vertex
+/// order), and its own positions are written as the morph target's displacements;
+/// returns that accessor.
+fn morph_target(
+    pool: &mut Pool,
+    sub: &mut Mesh,
+    base: &Mesh,
+    tris: &[u32],
+    remap: &mut [u32],
+) -> usize {
+    let base = extract(base, tris, Streams(0), remap).positions;
+    let delta: Vec<[f32; 3]> = sub
+        .positions
+        .iter()
+        .zip(&base)
+        .map(|(p, b)| std::array::from_fn(|k| p[k] - b[k]))
+        .collect();
+    sub.positions = base;
+    pool.floats(&delta, true)
 }
 
 /// Removes the morph weights of meshes in `dropped`: node `weights`, and animation

@@ -24,7 +24,11 @@ use std::time::Instant;
 
 /// Arguments of `meshlod lod`.
 #[derive(Debug, clap::Args)]
-#[command(args_conflicts_with_subcommands = true, subcommand_negates_reqs = true)]
+#[command(
+    args_conflicts_with_subcommands = true,
+    subcommand_negates_reqs = true,
+    allow_negative_numbers = true
+)]
 pub struct LodArgs {
     /// `select`: the level each object of a chain file shows from a camera.
     #[command(subcommand)]
@@ -88,14 +92,8 @@ pub struct SelectArgs {
     /// A .gltf or .glb written by `meshlod lod`.
     pub file: PathBuf,
     /// Camera position in world units, `x,y,z`.
-    #[arg(
-        long,
-        value_name = "X,Y,Z",
-        value_delimiter = ',',
-        num_args = 3,
-        required = true
-    )]
-    pub camera: Vec<f64>,
+    #[arg(long, value_name = "X,Y,Z", value_parser = parse_point)]
+    pub camera: [f64; 3],
     /// Vertical field of view in degrees.
     #[arg(long, value_name = "DEG", default_value_t = 60.0)]
     pub fov: f64,
@@ -108,6 +106,18 @@ pub struct SelectArgs {
     /// Print JSON.
     #[arg(long)]
     pub json: bool,
+}
+
+/// `x,y,z` as three finite numbers.
+fn parse_point(text: &str) -> Result<[f64; 3], String> {
+    let v: Vec<f64> = text
+        .split(',')
+        .map(|t| t.trim().parse::<f64>().map_err(|e| format!("{t:?}: {e}")))
+        .collect::<Result<_, _>>()?;
+    match v[..] {
+        [x, y, z] if v.iter().all(|c| c.is_finite()) => Ok([x, y, z]),
+        _ => Err(format!("expected three finite numbers x,y,z, got {text:?}")),
+    }
 }
 
 /// A level in the report.
@@ -467,7 +477,7 @@ fn run_select(args: &SelectArgs) -> Result<()> {
             args.file.display()
         );
     };
-    let camera: [f64; 3] = [args.camera[0], args.camera[1], args.camera[2]];
+    let camera = args.camera;
     let mut out = Vec::new();
     for (i, part) in scene.parts.iter().enumerate() {
         let Some(info) = doc

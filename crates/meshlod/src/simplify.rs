@@ -68,6 +68,7 @@ pub use crate::decimate::StopReason;
 /// A length in mesh units or relative to the diagonal; defined in [`crate::mesh`]
 /// (the clustering uses it too), re-exported here where the options use it.
 pub use crate::mesh::Distance;
+pub use levels::{simplify_levels, supports_levels, LevelOutput, LevelStop};
 
 /// The simplification method.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize)]
@@ -802,7 +803,32 @@ pub fn simplify_observed(
         diag,
     );
     phases.refine = t_refine.elapsed().as_secs_f64();
-    let report = Report {
+    let report = assemble_report(
+        mesh, options, target, &out, outcome, &repair, diag, fitted, facing, phases, start,
+    );
+    Ok(Simplified {
+        mesh: out,
+        report,
+        vertex_source,
+    })
+}
+
+/// The [`Report`] of an edge-collapse or vertex-removal run of `mesh` to `out`.
+#[allow(clippy::too_many_arguments)]
+fn assemble_report(
+    mesh: &Mesh,
+    options: &SimplifyOptions,
+    target: usize,
+    out: &Mesh,
+    outcome: Outcome,
+    repair: &crate::collapse::Repair,
+    diag: f64,
+    fitted: fit::FitStats,
+    facing: Option<facing::FacingRepair>,
+    phases: Phases,
+    start: Instant,
+) -> Report {
+    Report {
         method: options.method.name(),
         triangles_in: mesh.triangles.len(),
         vertices_in: mesh.positions.len(),
@@ -834,12 +860,7 @@ pub fn simplify_observed(
         flat_shading: false,
         cluster: None,
         phases,
-    };
-    Ok(Simplified {
-        mesh: out,
-        report,
-        vertex_source,
-    })
+    }
 }
 
 /// What [`decimate_mesh`] leaves: the decimated mesh before the passes after
@@ -884,7 +905,12 @@ fn decimate_mesh(
     );
     let diag = surface.diagonal();
     let t_decimate = Instant::now();
-    let (outcome, triangles) = decimate(&mut surface, options, target, observer);
+    let stop = StopRule {
+        target_triangles: target,
+        max_error: options.max_error.map(|e| e.resolve(diag)),
+    };
+    let mut models = Models::new(options);
+    let (outcome, triangles) = decimate(&mut surface, options, stop, &mut models, observer);
     let t_output = Instant::now();
     let roots = if track_merges {
         surface.vertex_roots()
@@ -944,13 +970,38 @@ fn simplify_flat(
     })
 }
 
-/// Decimates `surface` toward `target` triangles with the method of `options`
-/// (edge collapse with the QEM or Melax cost and the filters the options ask for,
-/// or vertex removal); returns what happened and the surviving triangles.
+/// The edge-collapse cost models of a run, kept between runs over the same surface
+/// by [`levels`] (QEM's quadrics then carry over).
+struct Models {
+    qem: Qem,
+    melax: Melax,
+}
+
+impl Models {
+    fn new(options: &SimplifyOptions) -> Self {
+        let qo = QemOptions {
+            boundary_weight: options.boundary_weight,
+            area_exponent: options.area_exponent,
+            placement: options.placement,
+            condition: options.solve_condition,
+            displacement_guard: options.displacement_guard,
+            ..QemOptions::default()
+        };
+        Self {
+            qem: Qem::new(qo),
+            melax: Melax::default(),
+        }
+    }
+}
+
+/// Decimates `surface` until `stop` with the method of `options` (edge collapse
+/// with the QEM or Melax cost of `models` and the filters the options ask for, or
+/// vertex removal); returns what happened and the surviving triangles.
 fn decimate(
     surface: &mut Surface,
     options: &SimplifyOptions,
-    target: usize,
+    stop: StopRule,
+    models: &mut Models,
     observer: &mut dyn Observer,
 ) -> (Outcome, TriangleLists) {
     let diag = surface.diagonal();
@@ -964,10 +1015,7 @@ fn decimate(
             allow_non_edge,
             ..OperatorLimits::default()
         },
-        stop: StopRule {
-            target_triangles: target,
-            max_error: options.max_error.map(|e| e.resolve(diag)),
-        },
+        stop,
         extra_pairs,
     };
     let normal = options.max_normal_deviation.map(NormalDeviation::new);
@@ -988,17 +1036,13 @@ fn decimate(
     match options.method {
         Method::Cluster => unreachable!("clustering does not decimate a surface"),
         Method::Qem => {
-            let qo = QemOptions {
-                boundary_weight: options.boundary_weight,
-                area_exponent: options.area_exponent,
-                placement: options.placement,
-                condition: options.solve_condition,
-                displacement_guard: options.displacement_guard,
-                ..QemOptions::default()
-            };
-            let mut qem = Qem::new(qo);
-            let outcome =
-                edge_collapse::run(surface, &mut qem, &filters, &driver_options, observer);
+            let outcome = edge_collapse::run(
+                surface,
+                &mut models.qem,
+                &filters,
+                &driver_options,
+                observer,
+            );
             (outcome, surface.output_triangles())
         }
         Method::VertexRemoval => {
@@ -1020,9 +1064,13 @@ fn decimate(
             (outcome, vr.output_triangles())
         }
         Method::Melax => {
-            let mut melax = Melax::default();
-            let outcome =
-                edge_collapse::run(surface, &mut melax, &filters, &driver_options, observer);
+            let outcome = edge_collapse::run(
+                surface,
+                &mut models.melax,
+                &filters,
+                &driver_options,
+                observer,
+            );
             (outcome, surface.output_triangles())
         }
     }
@@ -1051,12 +1099,38 @@ fn refine(
     passes: Passes,
     diag: f64,
 ) -> (fit::FitStats, Option<facing::FacingRepair>) {
+    let tree =
+        (passes.facing || passes.fit).then(|| Bvh::build_morton(&mesh.positions, &mesh.triangles));
+    refine_with(
+        mesh,
+        options,
+        out,
+        vertex_source,
+        merged_into,
+        passes,
+        diag,
+        tree.as_ref(),
+    )
+}
+
+/// [`refine`] with the closest-point tree over `mesh` given (`None` when neither
+/// pass runs).
+#[allow(clippy::too_many_arguments)]
+fn refine_with(
+    mesh: &Mesh,
+    options: &SimplifyOptions,
+    out: &mut Mesh,
+    vertex_source: &[u32],
+    merged_into: Option<&[u32]>,
+    passes: Passes,
+    diag: f64,
+    tree: Option<&Bvh>,
+) -> (fit::FitStats, Option<facing::FacingRepair>) {
     let Passes {
         fit: fit_on,
         facing: facing_on,
     } = passes;
-    let tree = (facing_on || fit_on).then(|| Bvh::build_morton(&mesh.positions, &mesh.triangles));
-    let fitted = match &tree {
+    let fitted = match tree {
         Some(tree) if fit_on => {
             let locked_out =
                 locked_outputs(options, out.positions.len(), vertex_source, merged_into);
@@ -1080,7 +1154,7 @@ fn refine(
         _ => (fit::FitStats::default(), Vec::new()),
     };
     let (fitted, known) = fitted;
-    let facing = match &tree {
+    let facing = match tree {
         Some(tree) if facing_on => Some(facing::repair(
             mesh,
             tree,
@@ -1245,9 +1319,22 @@ fn cluster_result(
 /// otherwise).
 fn build_output(
     mesh: &Mesh,
+    lists: TriangleLists,
+    surface: &mut Surface,
+    want_point_out: bool,
+) -> (Mesh, Vec<u32>, Vec<u32>) {
+    let (out, source, point_out) = output_of(mesh, lists, surface, want_point_out, false);
+    (out, source, point_out)
+}
+
+/// [`build_output`], leaving the surface's attribute streams in place when `keep`
+/// (a copy is gathered; the surface can go on collapsing).
+fn output_of(
+    mesh: &Mesh,
     (wedges, points, groups): TriangleLists,
     surface: &mut Surface,
     want_point_out: bool,
+    keep: bool,
 ) -> (Mesh, Vec<u32>, Vec<u32>) {
     let mut remap = vec![u32::MAX; mesh.positions.len()];
     let mut point_out = if want_point_out {
@@ -1276,7 +1363,11 @@ fn build_output(
         }
         triangles.push(t);
     }
-    let attributes = surface.take_attributes().gather(&source);
+    let attributes = if keep {
+        surface.attributes().gather(&source)
+    } else {
+        surface.take_attributes().gather(&source)
+    };
     (
         Mesh {
             positions,
@@ -1363,6 +1454,7 @@ mod chunked;
 mod facing;
 mod fit;
 mod flat;
+mod levels;
 pub use fit::DEFAULT_FIT_ITERATIONS;
 #[cfg(test)]
 mod tests;

@@ -106,6 +106,8 @@ impl Default for QemOptions {
 pub struct Qem {
     options: QemOptions,
     quadrics: Vec<Quadric>,
+    /// [`Qem::keep_quadrics`] was called: `init` keeps the quadrics it has.
+    keep: bool,
 }
 
 impl Qem {
@@ -115,7 +117,16 @@ impl Qem {
         Self {
             options,
             quadrics: Vec::new(),
+            keep: false,
         }
+    }
+
+    /// From now on [`CostModel::init`] keeps the quadrics this model has for a
+    /// surface with as many points (the same surface, run again after some
+    /// collapses), so a later run goes on measuring errors against the original
+    /// planes. Used to build successive levels of detail in one run.
+    pub fn keep_quadrics(&mut self) {
+        self.keep = true;
     }
 
     /// The quadric of point `p` (zero before [`CostModel::init`]).
@@ -220,6 +231,9 @@ impl CostModel for Qem {
     #[inline(always)]
     fn init(&mut self, surface: &Surface) {
         let n = surface.point_count();
+        if self.keep && self.quadrics.len() == n {
+            return;
+        }
         self.quadrics.clear();
         self.quadrics.resize(n, Quadric::ZERO);
         // Mean triangle area (the scale of non-area weights, `area_exponent`).

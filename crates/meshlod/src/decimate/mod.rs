@@ -175,3 +175,34 @@ pub struct Outcome {
     /// compatibility).
     pub soft_filters_relaxed: bool,
 }
+
+impl Outcome {
+    /// A run that did nothing because it had nothing to do: at its target.
+    pub(crate) fn nothing() -> Self {
+        Self {
+            stop_reason: StopReason::TargetReached,
+            stop_detail: String::new(),
+            collapses: 0,
+            non_edge_contractions: 0,
+            max_error: 0.0,
+            rejections: Rejections::default(),
+            rescans: 0,
+            retries: 0,
+            soft_filters_relaxed: false,
+        }
+    }
+
+    /// This run followed by `later` on the same surface: counts added, the largest
+    /// error, `later`'s stop.
+    pub(crate) fn merge(&mut self, later: Outcome) {
+        self.stop_reason = later.stop_reason;
+        self.stop_detail = later.stop_detail;
+        self.collapses += later.collapses;
+        self.non_edge_contractions += later.non_edge_contractions;
+        self.max_error = self.max_error.max(later.max_error);
+        self.rejections.add(&later.rejections);
+        self.rescans += later.rescans;
+        self.retries += later.retries;
+        self.soft_filters_relaxed |= later.soft_filters_relaxed;
+    }
+}

@@ -28,7 +28,9 @@ use crate::decimate::NoObserver;
 use crate::mesh::{Distance, Mesh};
 use crate::metrics::bvh::Bvh;
 use crate::metrics::{self, SamplingOptions};
-use crate::simplify::{simplify_observed, SimplifyError, SimplifyOptions, StopReason};
+use crate::simplify::{
+    simplify_levels, simplify_observed, supports_levels, LevelStop, SimplifyError, SimplifyOptions,
+};
 use serde::Serialize;
 use std::time::Instant;
 
@@ -365,63 +367,109 @@ fn bounding_sphere(mesh: &Mesh) -> ([f64; 3], f64) {
     (c, r2.sqrt())
 }
 
-/// One simplification step: the mesh, the QEM error it reported (mesh units), the
-/// vertex provenance into the step's input, and whether it reached its target.
-struct Step {
-    mesh: Mesh,
-    qem_error: f64,
-    source: Vec<u32>,
-    reached: bool,
+/// Decides each level's stop and accepts (measures and records) each level made,
+/// for both ways of making them: one run through every level
+/// ([`simplify_levels`], QEM and Melax), or one [`simplify_observed`] call per
+/// level from the previous level (vertex removal, clustering, flat-shaded input).
+struct Planner<'a> {
+    mesh: &'a Mesh,
+    options: &'a ChainOptions,
+    bvh0: Bvh,
+    chain: Chain,
+    /// Levels wanted after LOD0.
+    wanted: usize,
+    /// Level by level the simplifier's errors restart at each level, so this
+    /// relates the growth of the measured Hausdorff distance over a level to the
+    /// simplifier's error on it, learnt from the last level (error mode).
+    gain: Option<f64>,
 }
 
-fn step(mesh: &Mesh, options: &SimplifyOptions) -> Result<Step, LodError> {
-    let s = simplify_observed(mesh, options, &mut NoObserver)?;
-    Ok(Step {
-        qem_error: s.report.error_absolute,
-        reached: matches!(s.report.stop_reason, StopReason::TargetReached),
-        source: s.vertex_source,
-        mesh: s.mesh,
-    })
-}
-
-/// Simplifies `mesh` to `target` triangles (and no error bound).
-fn to_count(mesh: &Mesh, base: &SimplifyOptions, target: usize) -> Result<Step, LodError> {
-    let mut o = base.clone();
-    o.ratio = None;
-    o.max_error = None;
-    o.target_triangles = Some(target);
-    step(mesh, &o)
-}
-
-/// Simplifies `mesh` until the next collapse would cost more than `qem` (mesh
-/// units), then, if that left more than `cap` triangles, on to `cap`.
-fn to_error(mesh: &Mesh, base: &SimplifyOptions, qem: f64, cap: usize) -> Result<Step, LodError> {
-    let mut o = base.clone();
-    o.ratio = None;
-    o.target_triangles = None;
-    o.max_error = Some(Distance::Absolute(qem));
-    let first = step(mesh, &o)?;
-    if first.mesh.triangles.len() <= cap {
-        return Ok(Step {
-            reached: true,
-            ..first
-        });
+impl Planner<'_> {
+    /// The stop of the next level, or `None` when the chain is complete.
+    fn next_stop(&self) -> Option<LevelStop> {
+        let k = self.chain.levels.len();
+        if k > self.wanted || self.chain.stopped_early.is_some() {
+            return None;
+        }
+        let prev = self.chain.levels.last().expect("LOD0 is there");
+        Some(match &self.options.levels {
+            LevelSpec::Ratios(r) => LevelStop {
+                max_error: None,
+                at_most: ((r[k - 1] * self.mesh.triangles.len() as f64).round() as usize).max(1),
+            },
+            LevelSpec::ByError(_) => LevelStop {
+                // Doubling the error: growing it by as much as it is.
+                max_error: self
+                    .gain
+                    .filter(|_| prev.error_max > 0.0)
+                    .map(|g| prev.error_max / g),
+                at_most: prev.triangles / 2,
+            },
+        })
     }
-    let second = to_count(&first.mesh, base, cap)?;
-    Ok(Step {
-        qem_error: first.qem_error.max(second.qem_error),
-        source: second
-            .source
-            .iter()
-            .map(|&v| first.source.get(v as usize).copied().unwrap_or(v))
-            .collect(),
-        reached: second.reached,
-        mesh: second.mesh,
-    })
+
+    /// Measures the new level `mesh` (made to `stop`; `qem_error`: the error the
+    /// simplifier reported) and records it, or ends the chain when it did not get
+    /// fewer triangles than the previous level, or stalled short of its target.
+    /// Returns whether it was recorded (its mesh is left for the caller to fill in).
+    fn accept(&mut self, mesh: &Mesh, stop: LevelStop, qem_error: f64, seconds: f64) -> bool {
+        let k = self.chain.levels.len();
+        let prev = self.chain.levels.last().expect("LOD0 is there");
+        let prev_tris = prev.triangles;
+        let got = mesh.triangles.len();
+        let target = stop.at_most;
+        self.chain.simplify_seconds += seconds;
+        // Within 1% (or 2 triangles) of the target counts as reached: a collapse
+        // removes two triangles at a time.
+        if got == 0 || got >= prev_tris || got > target + (target / 100).max(2) {
+            self.chain.stopped_early = Some(format!(
+                "LOD{k}: the simplifier stopped at {got} triangles of LOD{}'s {prev_tris} (target {target})",
+                k - 1
+            ));
+            return false;
+        }
+        let t = Instant::now();
+        let bvh = Bvh::build(&mesh.positions, &mesh.triangles);
+        let sampling0 = sampling(&self.options.sampling, self.mesh);
+        let a_to_b = metrics::one_sided(self.mesh, &bvh, &sampling0);
+        let b_to_a = metrics::one_sided(mesh, &self.bvh0, &sampling(&self.options.sampling, mesh));
+        self.chain.measure_seconds += t.elapsed().as_secs_f64();
+        let error_max = a_to_b.max.max(b_to_a.max);
+        let error_mean = a_to_b.mean.max(b_to_a.mean);
+        let grown = error_max - prev.error_max;
+        if qem_error > 0.0 && grown > 0.0 {
+            self.gain = Some(grown / qem_error);
+        }
+        let worst = self
+            .chain
+            .errors()
+            .last()
+            .copied()
+            .unwrap_or(0.0)
+            .max(error_max);
+        let screen = self.options.screen;
+        let switch_distance = screen.switch_distance(worst);
+        self.chain.levels.push(Level {
+            level: k,
+            triangles: got,
+            vertices: mesh.positions.len(),
+            error_max,
+            error_mean,
+            switch_distance,
+            screen_coverage: screen_coverage(self.chain.radius, switch_distance, &screen),
+            seconds,
+            mesh: Mesh::default(),
+            morph_from: Vec::new(),
+        });
+        true
+    }
 }
 
 /// Builds the chain of `mesh`: LOD0 and the levels [`ChainOptions::levels`] asks
-/// for, each measured against LOD0.
+/// for, each measured against LOD0. With QEM or Melax (without fitting or
+/// non-edge pairs) every level comes out of one run ([`simplify_levels`]): the
+/// quadrics carry over, so each level's simplifier error is measured against
+/// LOD0; otherwise each level is one simplification of the previous level.
 ///
 /// # Errors
 /// [`LodError::Option`] for ratios that are not strictly decreasing in (0, 1), a
@@ -433,7 +481,7 @@ pub fn build_chain(mesh: &Mesh, options: &ChainOptions) -> Result<Chain, LodErro
     mesh.validate().map_err(SimplifyError::from)?;
     let (center, radius) = bounding_sphere(mesh);
     let screen = options.screen;
-    let mut chain = Chain {
+    let chain = Chain {
         levels: vec![Level {
             level: 0,
             triangles: mesh.triangles.len(),
@@ -454,105 +502,173 @@ pub fn build_chain(mesh: &Mesh, options: &ChainOptions) -> Result<Chain, LodErro
         measure_seconds: 0.0,
     };
     if mesh.triangles.is_empty() {
-        chain.stopped_early = Some("the input has no triangles".into());
-        return Ok(chain);
+        return Ok(Chain {
+            stopped_early: Some("the input has no triangles".into()),
+            ..chain
+        });
     }
     let t = Instant::now();
     let bvh0 = Bvh::build(&mesh.positions, &mesh.triangles);
-    chain.measure_seconds += t.elapsed().as_secs_f64();
-    let wanted = match &options.levels {
-        LevelSpec::ByError(n) => *n,
-        LevelSpec::Ratios(r) => r.len(),
+    let one_run = supports_levels(mesh, &options.simplify);
+    let mut planner = Planner {
+        mesh,
+        options,
+        bvh0,
+        chain,
+        wanted: match &options.levels {
+            LevelSpec::ByError(n) => *n,
+            LevelSpec::Ratios(r) => r.len(),
+        },
+        gain: None,
     };
-    // QEM error → Hausdorff growth, learnt level by level (error mode).
-    let mut gain: Option<f64> = None;
-    for k in 1..=wanted {
-        let prev = chain.levels.last().expect("LOD0 is there");
-        let prev_tris = prev.triangles;
-        let t = Instant::now();
-        let (s, target) = match &options.levels {
-            LevelSpec::Ratios(r) => {
-                let target = ((r[k - 1] * mesh.triangles.len() as f64).round() as usize).max(1);
-                if target >= prev_tris {
-                    chain.stopped_early = Some(format!(
-                        "LOD{k}: ratio {} asks for {target} triangles, not fewer than LOD{}'s {prev_tris}",
-                        r[k - 1],
-                        k - 1
-                    ));
-                    break;
-                }
-                (to_count(&prev.mesh, &options.simplify, target)?, target)
+    planner.chain.measure_seconds += t.elapsed().as_secs_f64();
+    if one_run {
+        chain_in_one_run(&mut planner)?;
+    } else {
+        chain_level_by_level(&mut planner)?;
+    }
+    Ok(planner.chain)
+}
+
+/// The levels of `planner` from one [`simplify_levels`] run. The stops depend only
+/// on what the simplifier reports (in error mode each level doubles the previous
+/// level's quadric error, which is measured against LOD0's planes here), so every
+/// level is decimated before any is measured, and the orientation repairs run
+/// beside the decimation.
+fn chain_in_one_run(planner: &mut Planner<'_>) -> Result<(), LodError> {
+    let n0 = planner.mesh.triangles.len();
+    let mut stops: Vec<LevelStop> = Vec::new();
+    let mut stalled: Option<String> = None;
+    let wanted = planner.wanted;
+    let levels = planner.options.levels.clone();
+    let t = Instant::now();
+    let outputs = simplify_levels(planner.mesh, &planner.options.simplify, &mut |made| {
+        let k = made.len();
+        if let (Some(last), Some(stop)) = (made.last(), stops.last()) {
+            let prev = if k >= 2 { made[k - 2].triangles } else { n0 };
+            let target = stop.at_most;
+            if last.triangles == 0
+                || last.triangles >= prev
+                || last.triangles > target + (target / 100).max(2)
+            {
+                stalled = Some(format!(
+                    "LOD{k}: the simplifier stopped at {} triangles of LOD{}'s {prev} (target {target})",
+                    last.triangles,
+                    k - 1
+                ));
+                return None;
             }
-            LevelSpec::ByError(_) => {
-                let cap = prev_tris / 2;
-                match gain {
-                    Some(g) if prev.error_max > 0.0 => (
-                        to_error(&prev.mesh, &options.simplify, prev.error_max / g, cap)?,
-                        cap,
-                    ),
-                    _ => (to_count(&prev.mesh, &options.simplify, cap)?, cap),
-                }
-            }
+        }
+        if k >= wanted {
+            return None;
+        }
+        let stop = match &levels {
+            LevelSpec::Ratios(r) => LevelStop {
+                max_error: None,
+                at_most: ((r[k] * n0 as f64).round() as usize).max(1),
+            },
+            LevelSpec::ByError(_) => match made.last() {
+                None => LevelStop {
+                    max_error: None,
+                    at_most: n0 / 2,
+                },
+                Some(last) => LevelStop {
+                    max_error: (last.error > 0.0).then_some(2.0 * last.error),
+                    at_most: last.triangles / 2,
+                },
+            },
         };
-        let seconds = t.elapsed().as_secs_f64();
-        chain.simplify_seconds += seconds;
-        let got = s.mesh.triangles.len();
-        // Within 1% (or 2 triangles) of the target counts as reached: a collapse
-        // removes two triangles at a time.
-        let close = got <= target + (target / 100).max(2);
-        if got == 0 || got >= prev_tris || (!s.reached && !close) {
-            chain.stopped_early = Some(format!(
-                "LOD{k}: the simplifier stopped at {got} triangles of LOD{}'s {prev_tris} (target {target})",
-                k - 1
-            ));
+        stops.push(stop);
+        Some(stop)
+    })?;
+    let wall = t.elapsed().as_secs_f64();
+    let keep = if stalled.is_some() {
+        outputs.len().saturating_sub(1)
+    } else {
+        outputs.len()
+    };
+    for (out, stop) in outputs.into_iter().take(keep).zip(stops) {
+        let s = out.simplified;
+        if !planner.accept(&s.mesh, stop, s.report.error_absolute, s.report.seconds) {
             break;
         }
-        let t = Instant::now();
-        let bvh = Bvh::build(&s.mesh.positions, &s.mesh.triangles);
-        let a_to_b = metrics::one_sided(mesh, &bvh, &sampling(&options.sampling, mesh));
-        let b_to_a = metrics::one_sided(&s.mesh, &bvh0, &sampling(&options.sampling, &s.mesh));
-        chain.measure_seconds += t.elapsed().as_secs_f64();
-        let error_max = a_to_b.max.max(b_to_a.max);
-        let error_mean = a_to_b.mean.max(b_to_a.mean);
-        if s.qem_error > 0.0 {
-            let grown = error_max - prev.error_max;
-            if grown > 0.0 {
-                gain = Some(grown / s.qem_error);
-            }
+        let level = planner.chain.levels.last_mut().expect("just pushed");
+        level.mesh = s.mesh;
+        if planner.options.geomorph {
+            level.morph_from = out.morph_from;
         }
-        let morph_from = if options.geomorph {
-            s.source
+    }
+    if planner.chain.stopped_early.is_none() {
+        planner.chain.stopped_early = stalled;
+    }
+    // The levels' own seconds overlap (repairs beside decimation): the wall time.
+    planner.chain.simplify_seconds = wall;
+    Ok(())
+}
+
+/// The levels of `planner`, each one simplification of the previous level.
+fn chain_level_by_level(planner: &mut Planner<'_>) -> Result<(), LodError> {
+    while let Some(stop) = planner.next_stop() {
+        let prev = &planner.chain.levels.last().expect("LOD0 is there").mesh;
+        let base = &planner.options.simplify;
+        let t = Instant::now();
+        let mut o = base.clone();
+        o.ratio = None;
+        o.target_triangles = Some(stop.at_most);
+        o.max_error = None;
+        let (s, qem_error) = match stop.max_error {
+            Some(e) => {
+                let mut first_o = base.clone();
+                first_o.ratio = None;
+                first_o.target_triangles = None;
+                first_o.max_error = Some(Distance::Absolute(e));
+                let first = simplify_observed(prev, &first_o, &mut NoObserver)?;
+                if first.mesh.triangles.len() <= stop.at_most {
+                    let q = first.report.error_absolute;
+                    (first, q)
+                } else {
+                    let second = simplify_observed(&first.mesh, &o, &mut NoObserver)?;
+                    let q = first
+                        .report
+                        .error_absolute
+                        .max(second.report.error_absolute);
+                    let source = second
+                        .vertex_source
+                        .iter()
+                        .map(|&v| first.vertex_source.get(v as usize).copied().unwrap_or(v))
+                        .collect();
+                    (
+                        crate::simplify::Simplified {
+                            vertex_source: source,
+                            ..second
+                        },
+                        q,
+                    )
+                }
+            }
+            None => {
+                let s = simplify_observed(prev, &o, &mut NoObserver)?;
+                let q = s.report.error_absolute;
+                (s, q)
+            }
+        };
+        let morph_from = if planner.options.geomorph {
+            s.vertex_source
                 .iter()
-                .map(|&v| {
-                    prev.mesh
-                        .positions
-                        .get(v as usize)
-                        .copied()
-                        .unwrap_or([0.0; 3])
-                })
+                .map(|&v| prev.positions.get(v as usize).copied().unwrap_or([0.0; 3]))
                 .collect()
         } else {
             Vec::new()
         };
-        let worst = prev
-            .error_max
-            .max(chain.errors().last().copied().unwrap_or(0.0))
-            .max(error_max);
-        let switch_distance = screen.switch_distance(worst);
-        chain.levels.push(Level {
-            level: k,
-            triangles: got,
-            vertices: s.mesh.positions.len(),
-            error_max,
-            error_mean,
-            switch_distance,
-            screen_coverage: screen_coverage(radius, switch_distance, &screen),
-            seconds,
-            mesh: s.mesh,
-            morph_from,
-        });
+        let seconds = t.elapsed().as_secs_f64();
+        if !planner.accept(&s.mesh, stop, qem_error, seconds) {
+            break;
+        }
+        let level = planner.chain.levels.last_mut().expect("just pushed");
+        level.mesh = s.mesh;
+        level.morph_from = morph_from;
     }
-    Ok(chain)
+    Ok(())
 }
 
 /// The fewest samples per direction a level is measured with by default.

@@ -1,0 +1,158 @@
+//! Runs the real `meshlod lod` and `meshlod lod select` in a temporary directory:
+//! one file per level for mesh formats with the reported errors equal to what
+//! `meshlod measure` says of those files, `MSFT_lod` glTF output, the selection's
+//! levels growing coarser with distance, and bad options refused cleanly.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+fn meshlod(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_meshlod"))
+        .args(args)
+        .output()
+        .expect("run meshlod")
+}
+
+fn ok(out: &Output) -> serde_json::Value {
+    assert!(
+        out.status.success(),
+        "meshlod failed: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    serde_json::from_str(stdout.lines().last().expect("a line")).expect("JSON")
+}
+
+fn data(name: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../../tests/data")
+        .join(name)
+}
+
+fn s(p: &Path) -> &str {
+    p.to_str().expect("utf-8 path")
+}
+
+#[test]
+fn levels_as_files_match_meshlod_measure() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let out = dir.path().join("bunny.ply");
+    let bunny = data("stanford-bunny.obj");
+    let r = ok(&meshlod(&[
+        "lod",
+        s(&bunny),
+        "-o",
+        s(&out),
+        "--ratios",
+        "0.5,0.1,0.02",
+        "--samples",
+        "20000",
+        "--json",
+    ]));
+    let levels = r["levels"].as_array().expect("levels");
+    assert_eq!(levels.len(), 4);
+    for key in [
+        "level",
+        "triangles",
+        "vertices",
+        "error_max",
+        "error_mean",
+        "switch_distance",
+        "screen_coverage",
+    ] {
+        assert!(levels.iter().all(|l| l.get(key).is_some()), "{key} missing");
+    }
+    for (k, l) in levels.iter().enumerate().skip(1) {
+        let file = dir.path().join(format!("bunny-lod{k}.ply"));
+        assert!(file.is_file(), "{} missing", file.display());
+        let m = ok(&meshlod(&[
+            "measure",
+            s(&dir.path().join("bunny-lod0.ply")),
+            s(&file),
+            "--samples",
+            "20000",
+            "--json",
+        ]));
+        let reported = l["error_max"].as_f64().expect("error_max");
+        let measured = m["hausdorff"].as_f64().expect("hausdorff");
+        assert!(
+            (reported - measured).abs() <= 1e-12 * measured.max(1e-30),
+            "LOD{k}: reported {reported}, measure says {measured}"
+        );
+        let prev = &levels[k - 1];
+        assert!(l["triangles"].as_u64() < prev["triangles"].as_u64());
+        assert!(l["error_max"].as_f64() > prev["error_max"].as_f64());
+    }
+}
+
+#[test]
+fn gltf_chain_and_selection() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let out = dir.path().join("duck.glb");
+    let r = ok(&meshlod(&[
+        "lod",
+        s(&data("Duck/Duck.gltf")),
+        "-o",
+        s(&out),
+        "--levels",
+        "3",
+        "--geomorph",
+        "--json",
+    ]));
+    let meshes = r["meshes"].as_array().expect("meshes");
+    assert_eq!(meshes.len(), 1);
+    let n = meshes[0]["levels"].as_array().expect("levels").len();
+    assert!(n >= 3, "only {n} levels: {:?}", meshes[0]["stopped_early"]);
+    // Walking the camera away along +z: the level never gets finer and ends at the
+    // coarsest; near the object it is LOD0.
+    let mut last = 0;
+    for d in [1.0, 100.0, 300.0, 1e3, 3e3, 1e4, 1e5, 1e7] {
+        let camera = format!("0,0,{d}");
+        let sel = ok(&meshlod(&[
+            "lod",
+            "select",
+            s(&out),
+            "--camera",
+            &camera,
+            "--json",
+        ]));
+        let level = sel["objects"][0]["level"].as_u64().expect("level") as usize;
+        assert!(level >= last, "at {d}: level {level} after {last}");
+        let px = sel["objects"][0]["pixels"].as_f64().expect("pixels");
+        assert!(px <= 1.0 + 1e-9, "at {d}: {px} px over the budget");
+        last = level;
+    }
+    assert_eq!(last, n - 1);
+}
+
+#[test]
+fn bad_lod_options_are_clean_errors() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let out = dir.path().join("x.ply");
+    let bunny = data("stanford-bunny.obj");
+    for args in [
+        vec!["--ratios", "0.5,0.7"],
+        vec!["--ratios", "1.5"],
+        vec!["--levels", "0"],
+        vec!["--fov", "0"],
+        vec!["--pixel-error", "-1"],
+        vec!["--method", "cluster", "--geomorph"],
+    ] {
+        let mut all = vec!["lod", s(&bunny), "-o", s(&out)];
+        all.extend(&args);
+        let o = meshlod(&all);
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(1), "{args:?}: {err}");
+        assert!(err.contains("error"), "{args:?}: {err}");
+    }
+    // `lod select` on a file without chains names the file.
+    let o = meshlod(&[
+        "lod",
+        "select",
+        s(&data("Duck/Duck.gltf")),
+        "--camera",
+        "0,0,1",
+    ]);
+    assert_eq!(o.status.code(), Some(1));
+    assert!(String::from_utf8_lossy(&o.stderr).contains("Duck.gltf"));
+}

@@ -40,7 +40,7 @@ pub struct LodArgs {
     /// one file per level (`OUT-lod0.ply`, `OUT-lod1.ply`, …).
     #[arg(short, long, required = true)]
     pub output: Option<PathBuf>,
-    /// Number of levels after LOD0, chosen by error: each about twice the previous
+    /// Number of levels after LOD0 (default 4), chosen by error: each about twice the previous
     /// level's error and at most half its triangles. The chain stops early when a
     /// level cannot halve the triangle count.
     #[arg(long, value_name = "N", conflicts_with = "ratios")]

@@ -2,18 +2,14 @@
 //! file of the malformed corpus `tests/data/bad/` giving a clean error (non-zero exit,
 //! the file named, no panic).
 
+mod common;
+use common::meshlod;
+
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+use std::process::Command;
 
 fn data_dir() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("../../tests/data")
-}
-
-fn meshlod(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_meshlod"))
-        .args(args)
-        .output()
-        .expect("run meshlod")
 }
 
 #[test]

@@ -3,25 +3,10 @@
 //! `meshlod measure` says of those files, `MSFT_lod` glTF output, the selection's
 //! levels growing coarser with distance, and bad options refused cleanly.
 
+mod common;
+use common::{meshlod, ok};
+
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
-
-fn meshlod(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_meshlod"))
-        .args(args)
-        .output()
-        .expect("run meshlod")
-}
-
-fn ok(out: &Output) -> serde_json::Value {
-    assert!(
-        out.status.success(),
-        "meshlod failed: {}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    let stdout = String::from_utf8_lossy(&out.stdout);
-    serde_json::from_str(stdout.lines().last().expect("a line")).expect("JSON")
-}
 
 fn data(name: &str) -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR"))

@@ -3,27 +3,12 @@
 //! simplifying straight to N with the same method, the geomorph file has the same
 //! connectivity, and truncated or foreign files are clean errors naming the file.
 
+mod common;
+use common::{meshlod, ok};
+
 use meshlod::io::WriteOptions;
 use meshlod::mesh::{generate, Mesh};
 use std::path::Path;
-use std::process::{Command, Output};
-
-fn meshlod(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_meshlod"))
-        .args(args)
-        .output()
-        .expect("run meshlod")
-}
-
-fn ok(out: &Output) -> serde_json::Value {
-    assert!(
-        out.status.success(),
-        "meshlod failed: {}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    let stdout = String::from_utf8_lossy(&out.stdout);
-    serde_json::from_str(stdout.lines().last().expect("a line")).expect("JSON")
-}
 
 /// Triangles as sorted position triples (rotated to the smallest corner).
 fn canonical(m: &Mesh) -> Vec<[[u32; 3]; 3]> {

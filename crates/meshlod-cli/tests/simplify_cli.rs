@@ -3,17 +3,13 @@
 //! `seconds`), targets by ratio, count and error, `--absolute`, clean errors for bad
 //! arguments, and glTF in / glTF out keeping the scene's parts.
 
+mod common;
+use common::meshlod;
+
 use meshlod::io::{read_scene, WriteOptions};
 use meshlod::mesh::generate;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
-
-fn meshlod(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_meshlod"))
-        .args(args)
-        .output()
-        .expect("run meshlod")
-}
 
 /// A torus (2 × 48 × 24 = 2304 triangles) written as binary PLY into `dir`.
 fn torus_file(dir: &Path) -> PathBuf {

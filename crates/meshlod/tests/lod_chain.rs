@@ -123,6 +123,19 @@ fn chain_level_by_level_with_vertex_removal() {
 }
 
 #[test]
+fn chain_by_error_with_clustering_halves_the_count() {
+    // Clustering has no error stop: by error, each level halves the count.
+    let mesh = generate::icosphere(6);
+    let o = ChainOptions {
+        simplify: SimplifyOptions::default().with_method(Method::Cluster),
+        ..options(LevelSpec::ByError(3))
+    };
+    let chain = build_chain(&mesh, &o).expect("chain");
+    assert_eq!(chain.levels.len(), 4, "stopped: {:?}", chain.stopped_early);
+    check_chain(&mesh, &chain, &o.sampling);
+}
+
+#[test]
 fn bad_chain_options_are_refused() {
     let mesh = generate::icosphere(2);
     for levels in [

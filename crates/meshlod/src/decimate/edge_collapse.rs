@@ -682,14 +682,7 @@ fn run_impl<C: CostModel + ?Sized>(
     let stop = options.stop;
     let mut out = Outcome {
         stop_reason: StopReason::NoLegalCollapse,
-        stop_detail: String::new(),
-        collapses: 0,
-        non_edge_contractions: 0,
-        max_error: 0.0,
-        rejections: Rejections::default(),
-        rescans: 0,
-        retries: 0,
-        soft_filters_relaxed: false,
+        ..Outcome::nothing()
     };
     if surface.live_triangles() == 0 {
         out.stop_reason = StopReason::EmptyInput;

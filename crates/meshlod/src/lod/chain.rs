@@ -29,7 +29,8 @@ use crate::mesh::{Distance, Mesh};
 use crate::metrics::bvh::Bvh;
 use crate::metrics::{self, SamplingOptions};
 use crate::simplify::{
-    simplify_levels, simplify_observed, supports_levels, LevelStop, SimplifyError, SimplifyOptions,
+    simplify_levels, simplify_observed, supports_levels, LevelStop, Method, SimplifyError,
+    SimplifyOptions,
 };
 use serde::Serialize;
 use std::time::Instant;
@@ -398,10 +399,13 @@ impl Planner<'_> {
                 at_most: ((r[k - 1] * self.mesh.triangles.len() as f64).round() as usize).max(1),
             },
             LevelSpec::ByError(_) => LevelStop {
-                // Doubling the error: growing it by as much as it is.
+                // Doubling the error: growing it by as much as it is. Clustering
+                // has no error stop: it halves the count.
                 max_error: self
                     .gain
-                    .filter(|_| prev.error_max > 0.0)
+                    .filter(|_| {
+                        prev.error_max > 0.0 && self.options.simplify.method != Method::Cluster
+                    })
                     .map(|g| prev.error_max / g),
                 at_most: prev.triangles / 2,
             },

@@ -2083,14 +2083,7 @@ impl VertexRemoval {
         observer.started(self.live, target);
         let mut outcome = Outcome {
             stop_reason: StopReason::NoLegalCollapse,
-            stop_detail: String::new(),
-            collapses: 0,
-            non_edge_contractions: 0,
-            max_error: 0.0,
-            rejections: Rejections::default(),
-            rescans: 0,
-            retries: 0,
-            soft_filters_relaxed: false,
+            ..Outcome::nothing()
         };
         if self.live == 0 {
             outcome.stop_reason = StopReason::EmptyInput;

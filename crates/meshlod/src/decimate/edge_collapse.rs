@@ -18,14 +18,14 @@
 //!    condition, fold-over, degenerate or duplicate result, a non-manifold edge, a
 //!    non-edge pair's shared neighbours, a filter) is dropped but remembered: a later collapse next to it may make it legal
 //!    without touching its own points, so nothing would queue it again. Once the
-//!    popped cost exceeds [`RETRY_GROWTH`] times the cheapest remembered pair's (and
+//!    popped cost exceeds `RETRY_GROWTH` times the cheapest remembered pair's (and
 //!    that factor times the cost at the previous retry), the remembered pairs are
 //!    evaluated and queued again before the pop goes on. Without this, a pair
 //!    blocked at cost 10⁻¹⁴ stayed out while collapses costing 12% of the diagonal
 //!    went ahead (Hoppe's club at 1%, `docs/methods/qem.md`). A pair rejected again at a retry is
 //!    counted again in the report's rejections.
 //! 5. A soft filter (the sliver guard) does not veto: a collapse it refuses is
-//!    queued again at [`SOFT_PENALTY`] times its cost and performed when it comes
+//!    queued again at `SOFT_PENALTY` times its cost and performed when it comes
 //!    up at that key.
 //! 6. When the queue runs dry before the target, all pairs are queued again (pairs
 //!    rejected earlier may have become legal). A re-scan that performs nothing ends

@@ -544,7 +544,7 @@ impl TripleSet {
     /// Keeps the items of `items` whose triple `triple(x)` (any order; distinct
     /// entries, not `u32::MAX`) is the first in order over its three entries:
     /// what inserting them one by one into an empty set keeps, in the same
-    /// order. Large inputs (over [`ONE_SET_MAX`] triples) are first partitioned
+    /// order. Large inputs (over `ONE_SET_MAX` triples) are first partitioned
     /// by a hash of the triple (a stable counting sort, so a triple's copies stay
     /// in order) into buckets of a few thousand, each deduplicated in a small table that stays in cache
     /// (one set over all of them misses the cache on nearly every insert). The

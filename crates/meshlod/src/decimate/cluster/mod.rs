@@ -145,7 +145,7 @@
 //! sequential in-memory loops (the accumulation, the probes' cells and counts, the
 //! representatives, the attribute sources, the manifold counts) run as an AVX2 build
 //! when the CPU has it
-//! ([`crate::isa`]: no FMA, so every operation rounds as in the baseline build and
+//! (`crate::isa`: no FMA, so every operation rounds as in the baseline build and
 //! the output is the same bit for bit; `MESHLOD_NO_AVX2=1` forces the baseline).
 //!
 //! # Parallelism and determinism

@@ -1,6 +1,9 @@
 //! Level of detail: discrete LOD chains with screen-space selection ([`chain`]), and
 //! progressive meshes (Hoppe, "Progressive Meshes", SIGGRAPH 1996).
 //!
+//! View-dependent level of detail is a cluster hierarchy ([`dag`]) whose cut for a
+//! camera is crack-free.
+//!
 //! A [`Chain`] is LOD0 and coarser meshes each simplified from the one before, with
 //! its measured error and the distance at which that error projects to a pixel
 //! budget; [`select`] picks the level of each object for a camera.
@@ -13,6 +16,7 @@
 //! number of splits applied.
 
 pub mod chain;
+pub mod dag;
 mod pmesh;
 mod progressive;
 

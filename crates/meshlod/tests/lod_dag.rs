@@ -1,0 +1,170 @@
+//! The cluster hierarchy: monotone errors and bounds, cuts of a closed surface that
+//! are closed (no cracks: every edge used as often in each direction) for every
+//! camera tried, each chosen cluster
+//! within the pixel budget, fewer triangles farther away and fewer than a uniform
+//! cut of the same error budget, and `.mdag` files that round-trip and refuse
+//! truncation and corruption.
+
+mod common;
+
+use meshlod::lod::dag::{build_dag, read_mdag, write_mdag, Dag, DagOptions, DagView};
+use meshlod::lod::Screen;
+use meshlod::mesh::{generate, Mesh};
+use std::collections::HashMap;
+
+fn sphere_dag() -> (Mesh, Dag) {
+    let mesh = generate::icosphere(6); // 81,920 triangles, closed
+    let (dag, report) = build_dag(&mesh, &DagOptions::default()).expect("dag");
+    assert_eq!(report.triangles, 81_920);
+    assert!(report.roots <= 8, "{report:?}");
+    assert!(report.depth >= 6, "{report:?}");
+    (mesh, dag)
+}
+
+/// Edges of `m` not used equally often in both directions (open: a crack), and
+/// edges used by more than two triangles (pinched).
+fn edge_faults(m: &Mesh) -> (usize, usize) {
+    let mut edges: HashMap<(u32, u32), (u32, u32)> = HashMap::new();
+    for t in &m.triangles {
+        for k in 0..3 {
+            let (a, b) = (t[k], t[(k + 1) % 3]);
+            let e = edges.entry((a.min(b), a.max(b))).or_default();
+            if a < b {
+                e.0 += 1;
+            } else {
+                e.1 += 1;
+            }
+        }
+    }
+    let open = edges.values().filter(|(f, r)| f != r).count();
+    let pinched = edges.values().filter(|(f, r)| f + r > 2).count();
+    (open, pinched)
+}
+
+fn view(position: [f64; 3]) -> DagView {
+    DagView {
+        position,
+        screen: Screen::default(),
+    }
+}
+
+#[test]
+fn errors_and_bounds_grow_up_the_hierarchy() {
+    let (_, dag) = sphere_dag();
+    for c in &dag.clusters {
+        assert!(c.triangles.len() <= 128);
+        assert!(c.parent_error >= c.error);
+        if c.parent_error.is_finite() {
+            let d: f64 = (0..3)
+                .map(|k| (c.sphere.center[k] - c.parent_sphere.center[k]).powi(2))
+                .sum::<f64>()
+                .sqrt();
+            assert!(d + c.sphere.radius <= c.parent_sphere.radius * (1.0 + 1e-12) + 1e-12);
+        }
+    }
+}
+
+#[test]
+fn cuts_are_closed_within_budget_and_coarser_farther() {
+    let (_, dag) = sphere_dag();
+    for dir in [[0.0, 0.0, 1.0], [0.6, 0.0, 0.8], [0.577, 0.577, 0.577]] {
+        let mut last = usize::MAX;
+        for d in [1.05, 1.3, 2.0, 4.0, 10.0, 40.0, 200.0, 2000.0, 1e6] {
+            let v = view(dir.map(|x| x * d));
+            let cut = dag.cut(&v);
+            let mesh = dag.cut_mesh(&cut);
+            let (open, pinched) = edge_faults(&mesh);
+            assert_eq!(open, 0, "at {d} along {dir:?}: open edges (cracks)");
+            // Known limit: two groups may each cut the corner at a locked border
+            // vertex, leaving a flat two-triangle fin whose edges are used four
+            // times; rare, and never a hole.
+            assert!(
+                pinched <= 2.max(mesh.triangles.len() / 1000),
+                "at {d} along {dir:?}: {pinched} pinched edges"
+            );
+            for &c in &cut {
+                let c = &dag.clusters[c];
+                let near: f64 = (0..3)
+                    .map(|k| (c.sphere.center[k] - v.position[k]).powi(2))
+                    .sum::<f64>()
+                    .sqrt()
+                    - c.sphere.radius;
+                if c.error > 0.0 {
+                    assert!(near > 0.0);
+                    assert!(v.screen.pixels(c.error, near) <= v.screen.pixel_error);
+                }
+            }
+            let n = mesh.triangles.len();
+            assert!(n <= last, "at {d}: {n} triangles after {last}");
+            assert!(n > 0);
+            last = n;
+        }
+        assert!(last <= 128 * 8, "far away the roots: {last}");
+    }
+}
+
+#[test]
+fn a_near_camera_cut_is_smaller_than_a_uniform_one() {
+    let (_, dag) = sphere_dag();
+    // Camera close to one side: the far side needs little detail.
+    let v = view([0.0, 0.0, 1.5]);
+    let cut = dag.cut(&v);
+    let vd: usize = cut.iter().map(|&c| dag.clusters[c].triangles.len()).sum();
+    // The uniform cut with the same budget at the nearest distance (0.5): every
+    // cluster whose error is below the threshold there and whose parent's is not.
+    let t = (v.screen.fov_degrees.to_radians() * 0.5).tan();
+    let threshold = v.screen.pixel_error * 2.0 * 0.5 * t / v.screen.screen_height_px;
+    let uniform: usize = dag
+        .clusters
+        .iter()
+        .filter(|c| c.error <= threshold && c.parent_error > threshold)
+        .map(|c| c.triangles.len())
+        .sum();
+    assert!(vd < uniform, "view-dependent {vd} vs uniform {uniform}");
+}
+
+#[test]
+fn mdag_files_round_trip_and_refuse_damage() {
+    let mesh = generate::icosphere(3);
+    let (dag, _) = build_dag(&mesh, &DagOptions::default()).expect("dag");
+    let bytes = write_mdag(&dag);
+    assert_eq!(read_mdag(&bytes).expect("reads back"), dag);
+    for cut in [0, 5, 12, 20, 40, bytes.len() / 2, bytes.len() - 1] {
+        let e = read_mdag(&bytes[..cut]).expect_err("truncated");
+        assert!(e.offset as usize <= cut, "{e}");
+    }
+    let mut extra = bytes.clone();
+    extra.push(0);
+    assert!(read_mdag(&extra).is_err());
+    let mut bad = bytes.clone();
+    bad[0] = b'X';
+    assert!(read_mdag(&bad).is_err());
+    // An absurd position count is refused before anything is allocated.
+    let mut huge = bytes.clone();
+    huge[16..24].copy_from_slice(&u64::MAX.to_le_bytes());
+    assert!(read_mdag(&huge).is_err());
+    // An index out of range (the last triangle's last index).
+    let mut oob = bytes;
+    let n = oob.len();
+    oob[n - 4..].copy_from_slice(&u32::MAX.to_le_bytes());
+    assert!(read_mdag(&oob)
+        .expect_err("out of range")
+        .message
+        .contains("out of range"));
+}
+
+#[test]
+fn bad_dag_options_and_inputs() {
+    let mesh = generate::icosphere(2);
+    let o = DagOptions {
+        cluster_size: 0,
+        ..DagOptions::default()
+    };
+    assert!(build_dag(&mesh, &o).is_err());
+    let (dag, report) = build_dag(&Mesh::default(), &DagOptions::default()).expect("empty");
+    assert_eq!(report.clusters, 0);
+    assert!(dag.cut(&view([0.0, 0.0, 5.0])).is_empty());
+    let mut nan = mesh;
+    nan.positions[0][1] = f32::NAN;
+    assert!(build_dag(&nan, &DagOptions::default()).is_err());
+}

@@ -109,7 +109,7 @@ pub struct SelectArgs {
 }
 
 /// `x,y,z` as three finite numbers.
-fn parse_point(text: &str) -> Result<[f64; 3], String> {
+pub(crate) fn parse_point(text: &str) -> Result<[f64; 3], String> {
     let v: Vec<f64> = text
         .split(',')
         .map(|t| t.trim().parse::<f64>().map_err(|e| format!("{t:?}: {e}")))

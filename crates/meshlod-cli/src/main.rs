@@ -16,6 +16,7 @@ macro_rules! out {
     }};
 }
 
+mod dag;
 mod heatmap;
 mod info;
 mod lod;
@@ -53,6 +54,10 @@ enum Command {
     /// written to glTF with `MSFT_lod` (or one file per level); `lod select` picks
     /// levels for a camera.
     Lod(Box<lod::LodArgs>),
+    /// View-dependent level of detail: build a cluster hierarchy (.mdag), cut it
+    /// for a camera.
+    #[command(subcommand)]
+    Dag(dag::DagCommand),
     /// Progressive meshes: build a .pmesh, extract a level.
     #[command(subcommand)]
     Pm(pm::PmCommand),
@@ -136,6 +141,7 @@ fn main() -> ExitCode {
         Command::Measure(args) => measure::run(&args),
         Command::Simplify(args) => simplify::run(&args),
         Command::Lod(args) => lod::run(&args),
+        Command::Dag(cmd) => dag::run(&cmd),
         Command::Pm(cmd) => pm::run(&cmd),
     };
     match result {

@@ -141,3 +141,58 @@ fn bad_lod_options_are_clean_errors() {
     assert_eq!(o.status.code(), Some(1));
     assert!(String::from_utf8_lossy(&o.stderr).contains("Duck.gltf"));
 }
+
+#[test]
+fn dag_build_and_cut() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let mdag = dir.path().join("bunny.mdag");
+    let r = ok(&meshlod(&[
+        "dag",
+        "build",
+        s(&data("stanford-bunny.obj")),
+        "-o",
+        s(&mdag),
+        "--json",
+    ]));
+    assert_eq!(r["triangles"].as_u64(), Some(69_451));
+    assert!(r["roots"].as_u64().expect("roots") >= 1);
+    let mut last = u64::MAX;
+    for z in ["0.3", "1", "10", "1000"] {
+        let out = dir.path().join(format!("cut-{z}.ply"));
+        let camera = format!("0,0.1,{z}");
+        let c = ok(&meshlod(&[
+            "dag",
+            "cut",
+            s(&mdag),
+            "--camera",
+            &camera,
+            "-o",
+            s(&out),
+            "--json",
+        ]));
+        let n = c["triangles"].as_u64().expect("triangles");
+        assert!(n <= last && n > 0, "at z = {z}: {n} after {last}");
+        last = n;
+        let info = ok(&meshlod(&["info", s(&out), "--json"]));
+        assert_eq!(info["triangles"].as_u64(), Some(n));
+    }
+    // A damaged file is a clean error naming it.
+    let bad = dir.path().join("bad.mdag");
+    let bytes = std::fs::read(&mdag).expect("read");
+    std::fs::write(&bad, &bytes[..bytes.len() / 2]).expect("write");
+    let o = meshlod(&[
+        "dag",
+        "cut",
+        s(&bad),
+        "--camera",
+        "0,0,1",
+        "-o",
+        s(&dir.path().join("x.ply")),
+    ]);
+    assert_eq!(o.status.code(), Some(1));
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        err.contains("bad.mdag") && err.contains("truncated"),
+        "{err}"
+    );
+}

@@ -110,16 +110,44 @@ fn a_near_camera_cut_is_smaller_than_a_uniform_one() {
     let v = view([0.0, 0.0, 1.5]);
     let cut = dag.cut(&v);
     let vd: usize = cut.iter().map(|&c| dag.clusters[c].triangles.len()).sum();
-    // The uniform cut with the same budget at the nearest distance (0.5): every
-    // cluster whose error is below the threshold there and whose parent's is not.
-    let t = (v.screen.fov_degrees.to_radians() * 0.5).tan();
-    let threshold = v.screen.pixel_error * 2.0 * 0.5 * t / v.screen.screen_height_px;
-    let uniform: usize = dag
-        .clusters
+    // A uniform LOD: one error threshold for the whole object (every cluster whose
+    // error is at most it and whose parent's is above), the largest whose cut keeps
+    // every cluster within the same pixel budget, measured the same way (error
+    // over the distance from the camera to the cluster's sphere).
+    let pixels = |c: &meshlod::lod::dag::Cluster| {
+        let d: f64 = (0..3)
+            .map(|k| (c.sphere.center[k] - v.position[k]).powi(2))
+            .sum::<f64>()
+            .sqrt()
+            - c.sphere.radius;
+        if c.error == 0.0 {
+            0.0
+        } else if d <= 0.0 {
+            f64::INFINITY
+        } else {
+            v.screen.pixels(c.error, d)
+        }
+    };
+    let mut thresholds: Vec<f64> = dag.clusters.iter().map(|c| c.error).collect();
+    thresholds.sort_by(f64::total_cmp);
+    thresholds.dedup();
+    let uniform = thresholds
         .iter()
-        .filter(|c| c.error <= threshold && c.parent_error > threshold)
-        .map(|c| c.triangles.len())
-        .sum();
+        .rev()
+        .map(|&e| {
+            let chosen: Vec<_> = dag
+                .clusters
+                .iter()
+                .filter(|c| c.error <= e && c.parent_error > e)
+                .collect();
+            (
+                chosen.iter().all(|c| pixels(c) <= v.screen.pixel_error),
+                chosen,
+            )
+        })
+        .find(|(ok, _)| *ok)
+        .map(|(_, chosen)| chosen.iter().map(|c| c.triangles.len()).sum::<usize>())
+        .expect("the finest cut is within any budget");
     assert!(vd < uniform, "view-dependent {vd} vs uniform {uniform}");
 }
 

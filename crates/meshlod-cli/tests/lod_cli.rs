@@ -191,8 +191,5 @@ fn dag_build_and_cut() {
     ]);
     assert_eq!(o.status.code(), Some(1));
     let err = String::from_utf8_lossy(&o.stderr);
-    assert!(
-        err.contains("bad.mdag") && err.contains("byte "),
-        "{err}"
-    );
+    assert!(err.contains("bad.mdag") && err.contains("byte "), "{err}");
 }

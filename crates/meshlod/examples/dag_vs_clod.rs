@@ -5,15 +5,17 @@
 //!
 //! `cargo run --release -p meshlod --example dag_vs_clod -- MESH…` (names as in
 //! `examples/common`). Per mesh: build seconds (median of `ROUNDS`, default 3,
-//! alternating), levels, roots (clusters never simplified further) and their
-//! triangles; then, for view-independent cuts at error thresholds of 0.01%, 0.1%
+//! alternating), the time of one view-dependent cut (`Dag::cut`, mean of 100, camera
+//! at twice the diagonal), levels, roots (clusters never simplified further) and
+//! their triangles; then, for view-independent cuts at error thresholds of 0.01%, 0.1%
 //! and 1% of the diagonal for meshoptimizer, the meshlod cut with the nearest
 //! triangle count at or above it, and both cuts' Hausdorff distance to the input
 //! (`metrics::hausdorff`, 200,000 samples per direction), as % of the diagonal.
 
 mod common;
 use common::{load, welded};
-use meshlod::lod::dag::{build_dag, Dag, DagOptions};
+use meshlod::lod::dag::{build_dag, Dag, DagOptions, DagView};
+use meshlod::lod::Screen;
 use meshlod::mesh::Mesh;
 use meshlod::metrics::{hausdorff, SamplingOptions};
 use std::time::Instant;
@@ -77,8 +79,8 @@ fn main() {
         .and_then(|r| r.parse().ok())
         .unwrap_or(3);
     let sampling = SamplingOptions::default().with_samples(200_000);
-    println!("| mesh | triangles | build s ours / meshopt | levels ours / meshopt | roots (triangles) ours / meshopt | cut at meshopt's t | triangles ours / meshopt | Hausdorff max % ours / meshopt | mean % ours / meshopt |");
-    println!("|---|---:|---:|---:|---:|---:|---:|---:|---:|");
+    println!("| mesh | triangles | build s ours / meshopt | one cut ms (ours) | levels ours / meshopt | roots (triangles) ours / meshopt | cut at meshopt's t | triangles ours / meshopt | Hausdorff max % ours / meshopt | mean % ours / meshopt |");
+    println!("|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|");
     for name in std::env::args().skip(1) {
         let m = load(&name);
         let diag = m.bbox_diagonal();
@@ -103,6 +105,20 @@ fn main() {
             theirs.push(t.elapsed().as_secs_f64());
         }
         let (dag, report) = built.expect("built");
+        // Time of one view-dependent cut, camera at twice the diagonal from the box.
+        let (lo, hi) = m.bounding_box(true).expect("triangles");
+        let center: [f64; 3] = std::array::from_fn(|k| 0.5 * f64::from(lo[k] + hi[k]));
+        let view = DagView {
+            position: [center[0], center[1], center[2] + 2.0 * diag],
+            screen: Screen::default(),
+        };
+        let t = Instant::now();
+        let mut chosen = 0;
+        for _ in 0..100 {
+            chosen += dag.cut(&view).len();
+        }
+        let cut_ms = t.elapsed().as_secs_f64() * 10.0;
+        std::hint::black_box(chosen);
         let c = theirs_built.expect("built");
         let levels = c.groups.iter().map(|g| g.0).max().unwrap_or(0) + 1;
         let terminal: Vec<&(usize, i32, Vec<u32>)> = c
@@ -132,7 +148,7 @@ fn main() {
             let hm = hausdorff(&m, &mc, &sampling);
             let pct = |x: f64| 100.0 * x / diag;
             println!(
-                "| {name} | {} | {:.2} / {:.2} | {} / {levels} | {} ({}) / {} ({terminal_tris}) | {}% | {} / {want} | {:.3} / {:.3} | {:.4} / {:.4} |",
+                "| {name} | {} | {:.2} / {:.2} | {cut_ms:.3} | {} / {levels} | {} ({}) / {} ({terminal_tris}) | {}% | {} / {want} | {:.3} / {:.3} | {:.4} / {:.4} |",
                 m.triangles.len(),
                 median(&mut ours.clone()),
                 median(&mut theirs.clone()),

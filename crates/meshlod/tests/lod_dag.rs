@@ -196,3 +196,16 @@ fn bad_dag_options_and_inputs() {
     nan.positions[0][1] = f32::NAN;
     assert!(build_dag(&nan, &DagOptions::default()).is_err());
 }
+
+#[test]
+fn the_hierarchy_is_the_same_on_any_number_of_threads() {
+    let mesh = generate::icosphere(5);
+    let on = |threads: usize| {
+        rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .expect("pool")
+            .install(|| build_dag(&mesh, &DagOptions::default()).expect("dag").0)
+    };
+    assert_eq!(on(1), on(3));
+}

@@ -371,14 +371,21 @@ fn round(
             }
         }
     }
+    // The groups are simplified in parallel (each on one thread), then their
+    // results applied in group order, so the hierarchy is the same on any number
+    // of threads.
+    use rayon::prelude::*;
+    let results: Vec<Result<Option<Simplified>, SimplifyError>> = groups
+        .par_iter()
+        .map(|members| simplify_group(dag, members, &shared, options))
+        .collect();
     let mut next = Vec::new();
     let (mut simplified, mut stuck) = (0, 0);
-    let mut scratch = Vec::new();
-    for members in &groups {
-        match simplify_group(dag, members, &shared, &mut scratch, options, level)? {
-            Some(made) => {
+    for (members, result) in groups.iter().zip(results) {
+        match result? {
+            Some(group) => {
                 simplified += 1;
-                next.extend(made);
+                next.extend(apply_group(dag, members, group, options, level));
             }
             None => {
                 stuck += 1;
@@ -477,36 +484,32 @@ fn group_clusters(dag: &Dag, open: &[usize], size: usize) -> Vec<Vec<usize>> {
     groups
 }
 
+/// A simplified group: its vertices (ids into [`Dag::positions`]) and the
+/// simplifier's result over them.
+struct Simplified {
+    globals: Vec<u32>,
+    result: crate::simplify::Simplified,
+}
+
 /// Simplifies the group `members` to half its triangles with the `shared` vertices
-/// locked; on success adds its clusters and returns them.
+/// locked; `None` when it cannot reach three quarters (a stuck group).
 fn simplify_group(
-    dag: &mut Dag,
+    dag: &Dag,
     members: &[usize],
     shared: &[bool],
-    scratch: &mut Vec<u32>,
     options: &DagOptions,
-    level: u32,
-) -> Result<Option<Vec<usize>>, SimplifyError> {
-    // Group-local vertex ids through `scratch` (one slot per shared position, left
-    // all `u32::MAX`).
-    let mut globals: Vec<u32> = Vec::new();
-    let mut triangles = Vec::new();
-    scratch.resize(dag.positions.len(), u32::MAX);
-    for &c in members {
-        for t in &dag.clusters[c].triangles {
-            triangles.push(t.map(|v| {
-                let slot = &mut scratch[v as usize];
-                if *slot == u32::MAX {
-                    *slot = globals.len() as u32;
-                    globals.push(v);
-                }
-                *slot
-            }));
-        }
-    }
-    for &v in &globals {
-        scratch[v as usize] = u32::MAX;
-    }
+) -> Result<Option<Simplified>, SimplifyError> {
+    let mut globals: Vec<u32> = members
+        .iter()
+        .flat_map(|&c| dag.clusters[c].triangles.iter().flatten().copied())
+        .collect();
+    globals.sort_unstable();
+    globals.dedup();
+    let local = |v: u32| globals.binary_search(&v).unwrap_or(0) as u32;
+    let triangles: Vec<[u32; 3]> = members
+        .iter()
+        .flat_map(|&c| dag.clusters[c].triangles.iter().map(|t| t.map(local)))
+        .collect();
     let n = triangles.len();
     if n < 4 {
         return Ok(None);
@@ -523,11 +526,24 @@ fn simplify_group(
     o.locked_vertices = Some(locked);
     o.chunks = false;
     o.threads = Some(1);
-    let s = simplify_observed(&group, &o, &mut NoObserver)?;
-
-    if s.mesh.triangles.len() * 4 > n * 3 {
+    let result = simplify_observed(&group, &o, &mut NoObserver)?;
+    if result.mesh.triangles.len() * 4 > n * 3 {
         return Ok(None);
     }
+    Ok(Some(Simplified { globals, result }))
+}
+
+/// Adds the simplified `group` of `members` to the hierarchy: new positions for
+/// the vertices that moved, the members' parent error and sphere, and the group's
+/// new clusters (returned).
+fn apply_group(
+    dag: &mut Dag,
+    members: &[usize],
+    group: Simplified,
+    options: &DagOptions,
+    level: u32,
+) -> Vec<usize> {
+    let Simplified { globals, result: s } = group;
     // Back to shared positions: a vertex still where its source was keeps its id
     // (every locked vertex does), a moved one is new.
     let ids: Vec<u32> = s
@@ -574,7 +590,7 @@ fn simplify_group(
             parent_sphere: sphere,
         });
     }
-    Ok(Some(made))
+    made
 }
 
 /// The first bytes of a `.mdag` file.

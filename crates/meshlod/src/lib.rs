@@ -31,6 +31,7 @@ pub mod metrics;
 pub mod quadric;
 mod radix;
 pub mod simplify;
+pub mod terrain;
 
 pub use io::{read_mesh, read_scene, write_mesh, write_scene, Scene};
 pub use mesh::{Mesh, MeshStats};

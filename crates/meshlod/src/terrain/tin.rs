@@ -1,0 +1,688 @@
+//! Greedy insertion of height-field samples into a Delaunay triangulation: a
+//! triangulated irregular network (TIN) within a vertical error bound.
+//!
+//! The method is Garland & Heckbert, *Fast Polygonal Approximation of Terrains and
+//! Height Fields* (CMU-CS-95-181, 1995), algorithm III with Delaunay updates:
+//!
+//! 1. start from the two triangles spanning the corners of the region (plus any seed
+//!    points, inserted first: the tile borders of [`super::tiles`]);
+//! 2. each triangle keeps its *candidate*: the grid sample it covers with the largest
+//!    vertical distance to the triangle's plane, found by rasterising the triangle over
+//!    the grid (a scanline per row, the row's span solved exactly in integers, the
+//!    plane evaluated incrementally along the row in `f64`);
+//! 3. a max-heap holds `(error, triangle)`; the worst candidate is inserted (splitting
+//!    its triangle in three, or the two triangles beside an edge in four when the
+//!    sample lies on that edge), the edges opposite the new vertex are made locally
+//!    Delaunay by Lawson flips (Lawson 1977; de Berg et al., *Computational Geometry*,
+//!    ch. 9), and only the triangles created or changed are rescanned;
+//! 4. stop when the worst candidate is within the bound (or a triangle budget is met).
+//!
+//! Heap entries are invalidated lazily: an entry whose error is not the triangle's
+//! current error is skipped when popped, and the heap is rebuilt from the live
+//! triangles when stale entries outnumber them. Each insertion rescans the area of the
+//! triangles it changed, so the cost is about `O((m + n) log m)` for `n` samples and
+//! `m` inserted points, as in the paper.
+//!
+//! All geometric predicates (orientation, in-circle) are exact: vertices are grid
+//! samples with integer coordinates, evaluated in `i64`/`i128`. Ties break by
+//! triangle number, so the output is deterministic.
+//!
+//! Storage is compact arrays indexed by `u32`: three vertex ids and three twin
+//! half-edges per triangle, the candidate sample and its error (rounded *up* to `f32`,
+//! so stopping at `error ≤ E` never under-reports), and `u64` heap keys.
+
+use std::collections::BinaryHeap;
+
+/// No twin (a border edge) / no candidate.
+const NONE: u32 = u32::MAX;
+
+/// Options for [`build_tin`].
+#[derive(Debug, Clone, PartialEq)]
+pub struct TinOptions {
+    /// Largest vertical distance, in height units, between any grid sample and the
+    /// TIN. Insertion stops once every sample is within it. Default 1.
+    pub max_error: f64,
+    /// Stop once the TIN has at least this many triangles (whichever of this and
+    /// [`Self::max_error`] comes first). Default: no limit.
+    pub max_triangles: Option<usize>,
+}
+
+impl Default for TinOptions {
+    fn default() -> Self {
+        Self {
+            max_error: 1.0,
+            max_triangles: None,
+        }
+    }
+}
+
+/// A rectangle of grid samples, inclusive: columns `x0..=x1`, rows `y0..=y1`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Region {
+    /// First column.
+    pub x0: u32,
+    /// First row.
+    pub y0: u32,
+    /// Last column (inclusive).
+    pub x1: u32,
+    /// Last row (inclusive).
+    pub y1: u32,
+}
+
+/// A triangulated irregular network over a grid: vertices are grid samples.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Tin {
+    /// Vertex positions as grid `(column, row)`.
+    pub points: Vec<[u32; 2]>,
+    /// Triangles as three indices into [`Self::points`], counter-clockwise in
+    /// `(column, row)` coordinates (positive orientation).
+    pub triangles: Vec<[u32; 3]>,
+    /// Largest candidate error left when insertion stopped, in height units (an upper
+    /// bound of the true maximum, rounded up to `f32`).
+    pub max_error: f64,
+}
+
+/// Errors from [`build_tin`].
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum TinError {
+    /// The region is smaller than 2 × 2 samples or outside the grid.
+    #[error("the region {0:?} is not a rectangle of at least 2 x 2 samples inside the {1} x {2} grid")]
+    BadRegion(Region, usize, usize),
+    /// The grid holds a NaN or infinite height.
+    #[error("the height grid holds a non-finite height at sample {0}")]
+    NonFinite(usize),
+    /// The error bound is negative or NaN.
+    #[error("the error bound {0} is not a non-negative number")]
+    BadBound(f64),
+    /// Too many samples for 32-bit vertex ids.
+    #[error("the grid has {0} samples, more than meshlod's 2^31 limit")]
+    TooLarge(usize),
+}
+
+/// Progress callback: `(triangles, current worst error)`, called every few thousand
+/// insertions.
+pub type ProgressFn<'a> = &'a mut dyn FnMut(usize, f64);
+
+/// Builds a TIN of the `width × height` row-major grid `heights` (height units)
+/// within `options`, by greedy insertion with Delaunay updates (see the module docs).
+///
+/// # Errors
+/// [`TinError`] when the grid is smaller than 2 × 2, holds a non-finite height, or
+/// the bound is negative.
+pub fn build_tin(
+    heights: &[f32],
+    width: usize,
+    height: usize,
+    options: &TinOptions,
+) -> Result<Tin, TinError> {
+    let full = Region {
+        x0: 0,
+        y0: 0,
+        x1: width.saturating_sub(1) as u32,
+        y1: height.saturating_sub(1) as u32,
+    };
+    let seeding = Seeding {
+        region: full,
+        seeds: &[],
+        frozen_border: false,
+    };
+    build_tin_region(heights, width, height, seeding, options, None)
+}
+
+/// Where [`build_tin_region`] works: a rectangle of the grid, the points inserted
+/// before the greedy insertion, and whether the rectangle's border is frozen.
+#[derive(Debug, Clone, Copy)]
+pub struct Seeding<'s> {
+    /// The rectangle triangulated (its four corners are always vertices).
+    pub region: Region,
+    /// Grid `(column, row)` points inserted first, in order; points outside the
+    /// region or already vertices are skipped.
+    pub seeds: &'s [[u32; 2]],
+    /// Never insert a border sample other than the seeds: the caller's seeds already
+    /// hold the border within the bound (the tile borders of [`super::tiles`]), so
+    /// neighbours sharing the border get the same border vertices.
+    pub frozen_border: bool,
+}
+
+/// Builds a TIN of `seeding.region` of the `width × height` grid, starting from its
+/// four corners and the seeds. `progress`, when given, is called every 4096
+/// insertions.
+///
+/// # Errors
+/// As [`build_tin`]; also [`TinError::BadRegion`] when the region leaves the grid.
+pub fn build_tin_region(
+    heights: &[f32],
+    width: usize,
+    height: usize,
+    seeding: Seeding<'_>,
+    options: &TinOptions,
+    progress: Option<ProgressFn<'_>>,
+) -> Result<Tin, TinError> {
+    let region = seeding.region;
+    if !(options.max_error >= 0.0) {
+        return Err(TinError::BadBound(options.max_error));
+    }
+    let n = width.checked_mul(height).unwrap_or(usize::MAX);
+    if n > (1usize << 31) {
+        return Err(TinError::TooLarge(n));
+    }
+    if width < 2
+        || height < 2
+        || heights.len() != n
+        || region.x0 >= region.x1
+        || region.y0 >= region.y1
+        || region.x1 as usize >= width
+        || region.y1 as usize >= height
+    {
+        return Err(TinError::BadRegion(region, width, height));
+    }
+    for y in region.y0..=region.y1 {
+        let row = y as usize * width;
+        for x in region.x0..=region.x1 {
+            if !heights[row + x as usize].is_finite() {
+                return Err(TinError::NonFinite(row + x as usize));
+            }
+        }
+    }
+    let mut b = Builder::new(heights, width, region, seeding.frozen_border);
+    for &s in seeding.seeds {
+        if s[0] >= region.x0 && s[0] <= region.x1 && s[1] >= region.y0 && s[1] <= region.y1 {
+            b.insert_located(s[0] as i32, s[1] as i32);
+        }
+    }
+    for t in 0..b.count() {
+        b.scan(t);
+    }
+    b.run(options, progress);
+    Ok(b.finish())
+}
+
+#[inline]
+fn next(e: u32) -> u32 {
+    if e % 3 == 2 {
+        e - 2
+    } else {
+        e + 1
+    }
+}
+
+#[inline]
+fn prev(e: u32) -> u32 {
+    if e % 3 == 0 {
+        e + 2
+    } else {
+        e - 1
+    }
+}
+
+/// Twice the signed area of `(a, b, c)`: positive when counter-clockwise.
+#[inline]
+fn orient(a: [i32; 2], b: [i32; 2], c: [i32; 2]) -> i64 {
+    let (ax, ay) = (i64::from(a[0]), i64::from(a[1]));
+    (i64::from(b[0]) - ax) * (i64::from(c[1]) - ay) - (i64::from(b[1]) - ay) * (i64::from(c[0]) - ax)
+}
+
+/// Whether `d` lies strictly inside the circle through the counter-clockwise
+/// triangle `(a, b, c)` (exact, in `i128`).
+fn in_circle(a: [i32; 2], b: [i32; 2], c: [i32; 2], d: [i32; 2]) -> bool {
+    let rel = |p: [i32; 2]| {
+        let x = i128::from(p[0]) - i128::from(d[0]);
+        let y = i128::from(p[1]) - i128::from(d[1]);
+        (x, y, x * x + y * y)
+    };
+    let (ax, ay, aw) = rel(a);
+    let (bx, by, bw) = rel(b);
+    let (cx, cy, cw) = rel(c);
+    let det = ax * (by * cw - bw * cy) - ay * (bx * cw - bw * cx) + aw * (bx * cy - by * cx);
+    det > 0
+}
+
+/// Rounds a non-negative `f64` up to the nearest `f32`.
+fn round_up(x: f64) -> f32 {
+    let f = x as f32;
+    if f64::from(f) < x {
+        f32::from_bits(f.to_bits() + 1)
+    } else {
+        f
+    }
+}
+
+/// The span `lo..=hi` of columns of row `y` inside the counter-clockwise triangle
+/// `(a, b, c)` (edges included), or `None` when the row misses it.
+#[inline]
+fn row_span(v: &[[i32; 2]; 3], y: i64) -> Option<(i64, i64)> {
+    let (mut lo, mut hi) = (i64::MIN, i64::MAX);
+    for k in 0..3 {
+        let (p, q) = (v[k], v[(k + 1) % 3]);
+        // Inside on the left of p→q: (qx−px)(y−py) − (qy−py)(x−px) ≥ 0, i.e. A x + B ≥ 0.
+        let a = -(i64::from(q[1]) - i64::from(p[1]));
+        let bc = (i64::from(q[0]) - i64::from(p[0])) * (y - i64::from(p[1]))
+            + (i64::from(q[1]) - i64::from(p[1])) * i64::from(p[0]);
+        if a > 0 {
+            lo = lo.max(-((bc).div_euclid(a)));
+        } else if a < 0 {
+            hi = hi.min(bc.div_euclid(-a));
+        } else if bc < 0 {
+            return None;
+        }
+    }
+    (lo <= hi).then_some((lo, hi))
+}
+
+/// Visits every grid sample inside or on the counter-clockwise triangle `v`, clipped
+/// to columns `cx0..=cx1` and rows `cy0..=cy1`: `f(row, x_lo, x_hi, z_lo, dz)` per
+/// row, where the plane through the vertices' heights `z` is `z_lo + dz·(x − x_lo)`.
+#[inline]
+pub(crate) fn raster(
+    v: &[[i32; 2]; 3],
+    z: [f64; 3],
+    clip: [i64; 4],
+    mut f: impl FnMut(i64, i64, i64, f64, f64),
+) {
+    let [cx0, cy0, cx1, cy1] = clip;
+    let o = [i64::from(v[0][0]), i64::from(v[0][1])];
+    let (d1x, d1y) = (i64::from(v[1][0]) - o[0], i64::from(v[1][1]) - o[1]);
+    let (d2x, d2y) = (i64::from(v[2][0]) - o[0], i64::from(v[2][1]) - o[1]);
+    let det = (d1x * d2y - d1y * d2x) as f64;
+    let (dz1, dz2) = (z[1] - z[0], z[2] - z[0]);
+    let gx = (dz1 * d2y as f64 - dz2 * d1y as f64) / det;
+    let gy = (dz2 * d1x as f64 - dz1 * d2x as f64) / det;
+    let ymin = i64::from(v[0][1].min(v[1][1]).min(v[2][1])).max(cy0);
+    let ymax = i64::from(v[0][1].max(v[1][1]).max(v[2][1])).min(cy1);
+    for y in ymin..=ymax {
+        let Some((lo, hi)) = row_span(v, y) else {
+            continue;
+        };
+        let (lo, hi) = (lo.max(cx0), hi.min(cx1));
+        if lo > hi {
+            continue;
+        }
+        let z_lo = z[0] + gx * (lo - o[0]) as f64 + gy * (y - o[1]) as f64;
+        f(y, lo, hi, z_lo, gx);
+    }
+}
+
+struct Builder<'a> {
+    grid: &'a [f32],
+    width: usize,
+    /// Rows and columns the candidates come from: the region, less its border when
+    /// the border is frozen.
+    clip: [i64; 4],
+    pts: Vec<[i32; 2]>,
+    /// Three vertex ids per triangle; half-edge `e` runs from `tri[e]` to `tri[next(e)]`.
+    tri: Vec<u32>,
+    /// The opposite half-edge of each half-edge, or [`NONE`].
+    twin: Vec<u32>,
+    /// Candidate sample (grid index) of each triangle, or [`NONE`].
+    cand: Vec<u32>,
+    /// Candidate error of each triangle, rounded up; 0 when none.
+    cerr: Vec<f32>,
+    /// `(error bits << 32) | triangle`: the largest error first, then the largest id.
+    heap: BinaryHeap<u64>,
+    /// Triangles touched by the current insertion.
+    touched: Vec<u32>,
+    flips: Vec<u32>,
+}
+
+impl<'a> Builder<'a> {
+    fn new(grid: &'a [f32], width: usize, region: Region, frozen: bool) -> Self {
+        let inset = i64::from(frozen);
+        let clip = [
+            i64::from(region.x0) + inset,
+            i64::from(region.y0) + inset,
+            i64::from(region.x1) - inset,
+            i64::from(region.y1) - inset,
+        ];
+        let mut b = Builder {
+            grid,
+            width,
+            clip,
+            pts: Vec::new(),
+            tri: Vec::new(),
+            twin: Vec::new(),
+            cand: Vec::new(),
+            cerr: Vec::new(),
+            heap: BinaryHeap::new(),
+            touched: Vec::new(),
+            flips: Vec::new(),
+        };
+        let (x0, y0, x1, y1) = (
+            region.x0 as i32,
+            region.y0 as i32,
+            region.x1 as i32,
+            region.y1 as i32,
+        );
+        b.pts = vec![[x0, y0], [x1, y0], [x1, y1], [x0, y1]];
+        // Two triangles (0 1 2) and (0 2 3), sharing the diagonal 0–2.
+        b.tri = vec![0, 1, 2, 0, 2, 3];
+        b.twin = vec![NONE, NONE, 3, 2, NONE, NONE];
+        b.cand = vec![NONE; 2];
+        b.cerr = vec![0.0; 2];
+        b
+    }
+
+    fn count(&self) -> u32 {
+        (self.tri.len() / 3) as u32
+    }
+
+    fn vert(&self, e: u32) -> [i32; 2] {
+        self.pts[self.tri[e as usize] as usize]
+    }
+
+    fn z(&self, p: [i32; 2]) -> f64 {
+        f64::from(self.grid[p[1] as usize * self.width + p[0] as usize])
+    }
+
+    fn link(&mut self, a: u32, b: u32) {
+        if a != NONE {
+            self.twin[a as usize] = b;
+        }
+        if b != NONE {
+            self.twin[b as usize] = a;
+        }
+    }
+
+    /// Sets triangle `t` to `(a, b, c)` and the twins of its edges `a→b`, `b→c`,
+    /// `c→a` (linking both ways), and marks it touched.
+    fn set(&mut self, t: u32, v: [u32; 3], tw: [u32; 3]) {
+        let e = 3 * t as usize;
+        self.tri[e..e + 3].copy_from_slice(&v);
+        for k in 0..3 {
+            self.link(3 * t + k as u32, tw[k]);
+        }
+        self.touched.push(t);
+    }
+
+    fn alloc(&mut self) -> u32 {
+        let t = self.count();
+        self.tri.extend_from_slice(&[0; 3]);
+        self.twin.extend_from_slice(&[NONE; 3]);
+        self.cand.push(NONE);
+        self.cerr.push(0.0);
+        t
+    }
+
+    /// Rescans triangle `t` for its worst sample and queues it.
+    fn scan(&mut self, t: u32) {
+        let e = 3 * t;
+        let v = [self.vert(e), self.vert(e + 1), self.vert(e + 2)];
+        let z = [self.z(v[0]), self.z(v[1]), self.z(v[2])];
+        let (mut best, mut best_i) = (0.0f64, NONE);
+        let (grid, width) = (self.grid, self.width);
+        raster(&v, z, self.clip, |y, lo, hi, z_lo, dz| {
+            let row = &grid[y as usize * width..][lo as usize..=hi as usize];
+            let mut zp = z_lo;
+            for (i, &h) in row.iter().enumerate() {
+                let d = (f64::from(h) - zp).abs();
+                if d > best {
+                    let x = lo as i32 + i as i32;
+                    let p = [x, y as i32];
+                    if p != v[0] && p != v[1] && p != v[2] {
+                        best = d;
+                        best_i = (y as usize * width + x as usize) as u32;
+                    }
+                }
+                zp += dz;
+            }
+        });
+        let err = if best_i == NONE { 0.0 } else { round_up(best) };
+        self.cand[t as usize] = best_i;
+        self.cerr[t as usize] = err;
+        if err > 0.0 {
+            self.heap.push((u64::from(err.to_bits()) << 32) | u64::from(t));
+        }
+    }
+
+    /// Greedy insertion until the bound or the budget holds.
+    fn run(&mut self, options: &TinOptions, mut progress: Option<ProgressFn<'_>>) {
+        let budget = options.max_triangles.unwrap_or(usize::MAX);
+        let mut inserted = 0usize;
+        while let Some(key) = self.heap.pop() {
+            let t = (key & 0xffff_ffff) as u32;
+            let err = f32::from_bits((key >> 32) as u32);
+            if self.cerr[t as usize].to_bits() != err.to_bits() {
+                continue;
+            }
+            if f64::from(err) <= options.max_error || self.count() as usize >= budget {
+                break;
+            }
+            let c = self.cand[t as usize] as usize;
+            let p = [(c % self.width) as i32, (c / self.width) as i32];
+            self.insert_in(t, p);
+            self.touched.sort_unstable();
+            self.touched.dedup();
+            let touched = std::mem::take(&mut self.touched);
+            for &u in &touched {
+                self.scan(u);
+            }
+            self.touched = touched;
+            self.touched.clear();
+            if self.heap.len() > 2 * self.count() as usize + 1024 {
+                self.rebuild_heap();
+            }
+            inserted += 1;
+            if inserted % 4096 == 0 {
+                if let Some(f) = progress.as_mut() {
+                    f(self.count() as usize, f64::from(err));
+                }
+            }
+        }
+    }
+
+    fn rebuild_heap(&mut self) {
+        let keys: Vec<u64> = (0..self.count())
+            .filter(|&t| self.cerr[t as usize] > 0.0)
+            .map(|t| (u64::from(self.cerr[t as usize].to_bits()) << 32) | u64::from(t))
+            .collect();
+        self.heap = BinaryHeap::from(keys);
+    }
+
+    /// Inserts `p` (inside or on the border of triangle `t`, not a vertex of it).
+    fn insert_in(&mut self, t: u32, p: [i32; 2]) {
+        let e = 3 * t;
+        let on_edge = (0..3).find(|&k| orient(self.vert(e + k), self.vert(next(e + k)), p) == 0);
+        self.pts.push(p);
+        let pi = (self.pts.len() - 1) as u32;
+        match on_edge {
+            Some(k) => self.split_edge(e + k, pi),
+            None => self.split_triangle(t, pi),
+        }
+        while let Some(h) = self.flips.pop() {
+            self.legalize(h);
+        }
+    }
+
+    /// Inserts `p` located by walking from the newest triangle (seeds). Points that
+    /// are already vertices are skipped.
+    fn insert_located(&mut self, x: i32, y: i32) {
+        let p = [x, y];
+        let mut t = self.count() - 1;
+        'walk: loop {
+            let e = 3 * t;
+            for k in 0..3 {
+                let (a, b) = (self.vert(e + k), self.vert(next(e + k)));
+                if orient(a, b, p) < 0 {
+                    let tw = self.twin[(e + k) as usize];
+                    if tw == NONE {
+                        return; // Outside the region: ignored.
+                    }
+                    t = tw / 3;
+                    continue 'walk;
+                }
+            }
+            break;
+        }
+        if (0..3).any(|k| self.vert(3 * t + k) == p) {
+            return;
+        }
+        self.insert_in(t, p);
+        self.touched.clear();
+    }
+
+    /// Splits triangle `t = (a, b, c)` into `(a, b, p)`, `(b, c, p)`, `(c, a, p)`.
+    fn split_triangle(&mut self, t: u32, p: u32) {
+        let e = 3 * t as usize;
+        let [a, b, c] = [self.tri[e], self.tri[e + 1], self.tri[e + 2]];
+        let [oab, obc, oca] = [self.twin[e], self.twin[e + 1], self.twin[e + 2]];
+        let t1 = self.alloc();
+        let t2 = self.alloc();
+        self.set(t, [a, b, p], [oab, 3 * t1 + 2, 3 * t2 + 1]);
+        self.set(t1, [b, c, p], [obc, 3 * t2 + 2, 3 * t + 1]);
+        self.set(t2, [c, a, p], [oca, 3 * t + 2, 3 * t1 + 1]);
+        self.flips.extend_from_slice(&[3 * t, 3 * t1, 3 * t2]);
+    }
+
+    /// Splits the edge `h` (from `a` to `b`, in triangle `(a, b, c)`) at `p`, and the
+    /// triangle `(b, a, d)` across it if any: two or four triangles, each with `p` as
+    /// its third vertex.
+    fn split_edge(&mut self, h: u32, p: u32) {
+        let t = h / 3;
+        let (a, b, c) = (
+            self.tri[h as usize],
+            self.tri[next(h) as usize],
+            self.tri[prev(h) as usize],
+        );
+        let (obc, oca) = (self.twin[next(h) as usize], self.twin[prev(h) as usize]);
+        let f = self.twin[h as usize];
+        let t1 = self.alloc();
+        if f == NONE {
+            self.set(t, [c, a, p], [oca, NONE, 3 * t1 + 1]);
+            self.set(t1, [b, c, p], [obc, 3 * t + 2, NONE]);
+            self.flips.extend_from_slice(&[3 * t, 3 * t1]);
+            return;
+        }
+        let u = f / 3;
+        let d = self.tri[prev(f) as usize];
+        let (oad, odb) = (self.twin[next(f) as usize], self.twin[prev(f) as usize]);
+        let u1 = self.alloc();
+        self.set(t, [c, a, p], [oca, 3 * u + 2, 3 * t1 + 1]);
+        self.set(t1, [b, c, p], [obc, 3 * t + 2, 3 * u1 + 1]);
+        self.set(u, [a, d, p], [oad, 3 * u1 + 2, 3 * t + 1]);
+        self.set(u1, [d, b, p], [odb, 3 * t1 + 2, 3 * u + 1]);
+        self.flips.extend_from_slice(&[3 * t, 3 * t1, 3 * u, 3 * u1]);
+    }
+
+    /// Makes the edge `h` (the edge of triangle `(a, b, p)` opposite the new vertex
+    /// `p`, at offset 0) locally Delaunay, flipping it to `p–q` when the vertex `q`
+    /// across it lies inside the circle through `a, b, p`; the two edges that then
+    /// face `p` are queued.
+    fn legalize(&mut self, h: u32) {
+        let f = self.twin[h as usize];
+        if f == NONE {
+            return;
+        }
+        let t = h / 3;
+        let u = f / 3;
+        let (a, b, p) = (
+            self.tri[h as usize],
+            self.tri[next(h) as usize],
+            self.tri[prev(h) as usize],
+        );
+        let q = self.tri[prev(f) as usize];
+        let pt = |i: u32| self.pts[i as usize];
+        if !in_circle(pt(a), pt(b), pt(p), pt(q)) {
+            return;
+        }
+        let (obp, opa) = (self.twin[next(h) as usize], self.twin[prev(h) as usize]);
+        let (oaq, oqb) = (self.twin[next(f) as usize], self.twin[prev(f) as usize]);
+        self.set(t, [a, q, p], [oaq, 3 * u + 2, opa]);
+        self.set(u, [q, b, p], [oqb, obp, 3 * t + 1]);
+        self.flips.extend_from_slice(&[3 * t, 3 * u]);
+    }
+
+    fn finish(self) -> Tin {
+        let max_error = self.cerr.iter().map(|&e| f64::from(e)).fold(0.0, f64::max);
+        Tin {
+            points: self.pts.iter().map(|p| [p[0] as u32, p[1] as u32]).collect(),
+            triangles: self
+                .tri
+                .chunks_exact(3)
+                .map(|c| [c[0], c[1], c[2]])
+                .collect(),
+            max_error,
+        }
+    }
+}
+
+/// Error of a TIN against its grid: the largest and the root-mean-square vertical
+/// distance, in height units, over the samples its triangles cover.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Deviation {
+    /// Largest vertical distance.
+    pub max: f64,
+    /// Root-mean-square vertical distance.
+    pub rms: f64,
+    /// Samples covered by at least one triangle.
+    pub covered: usize,
+}
+
+/// Measures `tin` against the grid sample by sample: every sample covered by a
+/// triangle (each counted once), its height compared with the triangle's linear
+/// interpolation (barycentric, in `f64`). Independent of the insertion's bookkeeping:
+/// the check of the bound.
+#[must_use]
+pub fn measure(tin: &Tin, heights: &[f32], width: usize) -> Deviation {
+    let height = heights.len() / width.max(1);
+    let mut seen = vec![0u64; heights.len().div_ceil(64)];
+    let (mut max, mut sum, mut covered) = (0.0f64, 0.0f64, 0usize);
+    for t in &tin.triangles {
+        let v = t.map(|i| {
+            let p = tin.points[i as usize];
+            [p[0] as i32, p[1] as i32]
+        });
+        let z = v.map(|p| f64::from(heights[p[1] as usize * width + p[0] as usize]));
+        let det = orient(v[0], v[1], v[2]) as f64;
+        let clip = [0, 0, width as i64 - 1, height as i64 - 1];
+        raster(&v, z, clip, |y, lo, hi, _, _| {
+            for x in lo..=hi {
+                let i = y as usize * width + x as usize;
+                if seen[i / 64] & (1 << (i % 64)) != 0 {
+                    continue;
+                }
+                seen[i / 64] |= 1 << (i % 64);
+                let p = [x as i32, y as i32];
+                let w0 = orient(v[1], v[2], p) as f64;
+                let w1 = orient(v[2], v[0], p) as f64;
+                let w2 = orient(v[0], v[1], p) as f64;
+                let zi = (w0 * z[0] + w1 * z[1] + w2 * z[2]) / det;
+                let d = (f64::from(heights[i]) - zi).abs();
+                max = max.max(d);
+                sum += d * d;
+                covered += 1;
+            }
+        });
+    }
+    Deviation {
+        max,
+        rms: if covered > 0 {
+            (sum / covered as f64).sqrt()
+        } else {
+            0.0
+        },
+        covered,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn row_span_of_a_right_triangle() {
+        // (0,0) (4,0) (0,4): row y covers x in 0..=4−y.
+        let v = [[0, 0], [4, 0], [0, 4]];
+        assert!(orient(v[0], v[1], v[2]) > 0);
+        for y in 0..=4 {
+            assert_eq!(row_span(&v, y), Some((0, 4 - y)));
+        }
+        assert_eq!(row_span(&v, 5), None);
+    }
+
+    #[test]
+    fn in_circle_of_a_square() {
+        // The fourth corner of a square is on the circle: not strictly inside.
+        assert!(!in_circle([0, 0], [2, 0], [2, 2], [0, 2]));
+        assert!(in_circle([0, 0], [2, 0], [2, 2], [1, 1]));
+        assert!(!in_circle([0, 0], [2, 0], [2, 2], [5, 5]));
+    }
+}

@@ -277,7 +277,11 @@ fn run_tiles(
         let path = tile_path(&args.output, tile.x, tile.y);
         let mesh = tin_to_mesh(&tile.tin, hf);
         let (lo, hi) = mesh.bounding_box(false).unwrap_or_default();
-        write_mesh(&path, &mesh, &WriteOptions::default().with_ascii(args.ascii))?;
+        write_mesh(
+            &path,
+            &mesh,
+            &WriteOptions::default().with_ascii(args.ascii),
+        )?;
         entries.push(TileEntry {
             x: tile.x,
             y: tile.y,
@@ -334,7 +338,9 @@ fn print_report(args: &TerrainArgs, r: &Report) -> Result<()> {
         r.height,
         r.triangles,
         r.vertices,
-        r.tiles.map(|t| format!(" in {t} tiles")).unwrap_or_default()
+        r.tiles
+            .map(|t| format!(" in {t} tiles"))
+            .unwrap_or_default()
     );
     out!(
         "error over every sample: max {:.6}, rms {:.6} (height units)",

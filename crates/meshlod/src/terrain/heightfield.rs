@@ -180,7 +180,9 @@ fn check_size(width: u64, height: u64, bytes_per_sample: u64, limit: u64) -> Res
         .checked_mul(height)
         .ok_or_else(|| absurd("overflows".into()))?;
     if n > MAX_SAMPLES as u64 {
-        return Err(absurd(format!("is more than the {MAX_SAMPLES} samples meshlod reads")));
+        return Err(absurd(format!(
+            "is more than the {MAX_SAMPLES} samples meshlod reads"
+        )));
     }
     if n.saturating_mul(bytes_per_sample) > limit {
         return Err(absurd(format!(
@@ -298,7 +300,11 @@ fn read_png(path: &Path) -> Result<HeightField, Problem> {
         png::ColorType::GrayscaleAlpha => 2,
         other => return Err(Problem::NotGrey(format!("a {other:?} PNG"))),
     };
-    let bytes_per = if depth == png::BitDepth::Sixteen { 2 } else { 1 };
+    let bytes_per = if depth == png::BitDepth::Sixteen {
+        2
+    } else {
+        1
+    };
     check_size(w, h, (channels * bytes_per) as u64, limit)?;
     let size = reader
         .output_buffer_size()

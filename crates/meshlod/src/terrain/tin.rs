@@ -86,7 +86,9 @@ pub struct Tin {
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum TinError {
     /// The region is smaller than 2 × 2 samples or outside the grid.
-    #[error("the region {0:?} is not a rectangle of at least 2 x 2 samples inside the {1} x {2} grid")]
+    #[error(
+        "the region {0:?} is not a rectangle of at least 2 x 2 samples inside the {1} x {2} grid"
+    )]
     BadRegion(Region, usize, usize),
     /// The grid holds a NaN or infinite height.
     #[error("the height grid holds a non-finite height at sample {0}")]
@@ -159,10 +161,10 @@ pub fn build_tin_region(
     progress: Option<ProgressFn<'_>>,
 ) -> Result<Tin, TinError> {
     let region = seeding.region;
-    if !(options.max_error >= 0.0) {
+    if options.max_error.is_nan() || options.max_error < 0.0 {
         return Err(TinError::BadBound(options.max_error));
     }
-    let n = width.checked_mul(height).unwrap_or(usize::MAX);
+    let n = width.saturating_mul(height);
     if n > (1usize << 31) {
         return Err(TinError::TooLarge(n));
     }
@@ -219,7 +221,8 @@ fn prev(e: u32) -> u32 {
 #[inline]
 fn orient(a: [i32; 2], b: [i32; 2], c: [i32; 2]) -> i64 {
     let (ax, ay) = (i64::from(a[0]), i64::from(a[1]));
-    (i64::from(b[0]) - ax) * (i64::from(c[1]) - ay) - (i64::from(b[1]) - ay) * (i64::from(c[0]) - ax)
+    (i64::from(b[0]) - ax) * (i64::from(c[1]) - ay)
+        - (i64::from(b[1]) - ay) * (i64::from(c[0]) - ax)
 }
 
 /// Whether `d` lies strictly inside the circle through the counter-clockwise
@@ -387,8 +390,8 @@ impl<'a> Builder<'a> {
     fn set(&mut self, t: u32, v: [u32; 3], tw: [u32; 3]) {
         let e = 3 * t as usize;
         self.tri[e..e + 3].copy_from_slice(&v);
-        for k in 0..3 {
-            self.link(3 * t + k as u32, tw[k]);
+        for (k, &o) in (0u32..).zip(&tw) {
+            self.link(3 * t + k, o);
         }
         self.touched.push(t);
     }
@@ -429,7 +432,8 @@ impl<'a> Builder<'a> {
         self.cand[t as usize] = best_i;
         self.cerr[t as usize] = err;
         if err > 0.0 {
-            self.heap.push((u64::from(err.to_bits()) << 32) | u64::from(t));
+            self.heap
+                .push((u64::from(err.to_bits()) << 32) | u64::from(t));
         }
     }
 
@@ -559,7 +563,8 @@ impl<'a> Builder<'a> {
         self.set(t1, [b, c, p], [obc, 3 * t + 2, 3 * u1 + 1]);
         self.set(u, [a, d, p], [oad, 3 * u1 + 2, 3 * t + 1]);
         self.set(u1, [d, b, p], [odb, 3 * t1 + 2, 3 * u + 1]);
-        self.flips.extend_from_slice(&[3 * t, 3 * t1, 3 * u, 3 * u1]);
+        self.flips
+            .extend_from_slice(&[3 * t, 3 * t1, 3 * u, 3 * u1]);
     }
 
     /// Makes the edge `h` (the edge of triangle `(a, b, p)` opposite the new vertex
@@ -593,7 +598,11 @@ impl<'a> Builder<'a> {
     fn finish(self) -> Tin {
         let max_error = self.cerr.iter().map(|&e| f64::from(e)).fold(0.0, f64::max);
         Tin {
-            points: self.pts.iter().map(|p| [p[0] as u32, p[1] as u32]).collect(),
+            points: self
+                .pts
+                .iter()
+                .map(|p| [p[0] as u32, p[1] as u32])
+                .collect(),
             triangles: self
                 .tri
                 .chunks_exact(3)

@@ -46,6 +46,10 @@ pub struct TerrainArgs {
     /// each within --max-error.
     #[arg(long, value_name = "T")]
     pub tile_size: Option<usize>,
+    /// Skip the vertex-removal pass after the insertion: the plain Garland & Heckbert
+    /// Delaunay TIN (more triangles, same bound).
+    #[arg(long)]
+    pub no_prune: bool,
     /// Write ASCII where the format has a choice (PLY, STL).
     #[arg(long)]
     pub ascii: bool,
@@ -124,6 +128,7 @@ fn options(args: &TerrainArgs) -> Result<TinOptions> {
     Ok(TinOptions {
         max_error,
         max_triangles: args.triangles,
+        prune: !args.no_prune,
     })
 }
 

@@ -9,6 +9,15 @@ use std::collections::{BTreeSet, HashSet};
 use std::io::Write;
 use std::path::Path;
 
+/// Options with the bound `e`, the budget `n` and the vertex-removal pass.
+fn opts(e: f64, n: Option<usize>) -> TinOptions {
+    TinOptions {
+        max_error: e,
+        max_triangles: n,
+        prune: true,
+    }
+}
+
 /// Twice the signed area of a triangle in grid coordinates.
 fn orient(a: [u32; 2], b: [u32; 2], c: [u32; 2]) -> i64 {
     let (ax, ay) = (i64::from(a[0]), i64::from(a[1]));
@@ -70,7 +79,7 @@ proptest! {
         noise in 0.0f32..8.0, e in 0.0f64..4.0,
     ) {
         let heights = field(w, h, seed, noise);
-        let tin = build_tin(&heights, w, h, &TinOptions { max_error: e, max_triangles: None }).unwrap();
+        let tin = build_tin(&heights, w, h, &opts(e, None)).unwrap();
         check_valid(&tin, [0, 0, w as u32 - 1, h as u32 - 1]);
         let dev = measure(&tin, &heights, w);
         prop_assert_eq!(dev.covered, w * h);
@@ -86,7 +95,7 @@ proptest! {
     #[test]
     fn budget_is_met(w in 8usize..40, h in 8usize..40, seed in any::<u64>(), n in 2usize..200) {
         let heights = field(w, h, seed, 5.0);
-        let tin = build_tin(&heights, w, h, &TinOptions { max_error: 0.0, max_triangles: Some(n) }).unwrap();
+        let tin = build_tin(&heights, w, h, &opts(0.0, Some(n))).unwrap();
         check_valid(&tin, [0, 0, w as u32 - 1, h as u32 - 1]);
         // One insertion adds one triangle (a border edge split) or two.
         prop_assert!(tin.triangles.len() <= n.max(2) + 1);
@@ -106,16 +115,7 @@ fn a_spike_on_the_diagonal_splits_the_edge() {
     //   (0,2)---(2,2)        (0,2)-----(2,2)
     let mut h = vec![0.0f32; 9];
     h[4] = 10.0;
-    let tin = build_tin(
-        &h,
-        3,
-        3,
-        &TinOptions {
-            max_error: 1.0,
-            max_triangles: None,
-        },
-    )
-    .unwrap();
+    let tin = build_tin(&h, 3, 3, &opts(1.0, None)).unwrap();
     check_valid(&tin, [0, 0, 2, 2]);
     assert_eq!(tin.triangles.len(), 4);
     assert!(tin.points.contains(&[1, 1]));
@@ -128,16 +128,7 @@ fn a_plane_needs_two_triangles() {
     let heights: Vec<f32> = (0..w * h)
         .map(|i| (2 * (i % w) + 3 * (i / w)) as f32)
         .collect();
-    let tin = build_tin(
-        &heights,
-        w,
-        h,
-        &TinOptions {
-            max_error: 0.0,
-            max_triangles: None,
-        },
-    )
-    .unwrap();
+    let tin = build_tin(&heights, w, h, &opts(0.0, None)).unwrap();
     assert_eq!(tin.triangles.len(), 2);
     assert_eq!(tin.points.len(), 4);
 }
@@ -145,10 +136,7 @@ fn a_plane_needs_two_triangles() {
 #[test]
 fn output_is_deterministic() {
     let heights = field(61, 47, 7, 6.0);
-    let o = TinOptions {
-        max_error: 0.5,
-        max_triangles: None,
-    };
+    let o = opts(0.5, None);
     assert_eq!(
         build_tin(&heights, 61, 47, &o).unwrap(),
         build_tin(&heights, 61, 47, &o).unwrap()
@@ -178,17 +166,7 @@ fn on_line(tin: &Tin, c: u32, rows: bool) -> (BTreeSet<[u32; 2]>, BTreeSet<[[u32
 /// Reassembles tiles: each is a valid TIN of its rectangle within the bound, and the
 /// two tiles beside each shared border have the same vertices and edges on it.
 fn check_tiles(heights: &[f32], w: usize, h: usize, t: usize, e: f64) {
-    let tiles = build_tiles(
-        heights,
-        w,
-        h,
-        t,
-        &TinOptions {
-            max_error: e,
-            max_triangles: None,
-        },
-    )
-    .unwrap();
+    let tiles = build_tiles(heights, w, h, t, &opts(e, None)).unwrap();
     let nx = tiles.iter().map(|t| t.x).max().unwrap() + 1;
     let ny = tiles.iter().map(|t| t.y).max().unwrap() + 1;
     assert_eq!(tiles.len(), nx * ny);
@@ -513,16 +491,7 @@ fn shared_srtm_tiles_hold_the_bound() {
     let hf = read_height_field(&path).unwrap();
     assert_eq!((hf.width, hf.height), (1201, 1201));
     for e in [1.0, 5.0] {
-        let tin = build_tin(
-            &hf.heights,
-            1201,
-            1201,
-            &TinOptions {
-                max_error: e,
-                max_triangles: None,
-            },
-        )
-        .unwrap();
+        let tin = build_tin(&hf.heights, 1201, 1201, &opts(e, None)).unwrap();
         check_valid(&tin, [0, 0, 1200, 1200]);
         let dev = measure(&tin, &hf.heights, 1201);
         assert_eq!(dev.covered, 1201 * 1201);

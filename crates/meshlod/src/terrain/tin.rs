@@ -45,6 +45,10 @@ pub struct TinOptions {
     /// Stop once the TIN has at least this many triangles (whichever of this and
     /// [`Self::max_error`] comes first). Default: no limit.
     pub max_triangles: Option<usize>,
+    /// After the insertion, remove inserted vertices whose removal keeps every sample
+    /// within [`Self::max_error`] (see [`build_tin`]). Ignored with a triangle
+    /// budget. Default true.
+    pub prune: bool,
 }
 
 impl Default for TinOptions {
@@ -52,6 +56,7 @@ impl Default for TinOptions {
         Self {
             max_error: 1.0,
             max_triangles: None,
+            prune: true,
         }
     }
 }
@@ -195,7 +200,11 @@ pub fn build_tin_region(
     for t in 0..b.count() {
         b.scan(t);
     }
+    let first = b.pts.len();
     b.run(options, progress);
+    if options.prune && options.max_triangles.is_none() {
+        b.prune(options.max_error, first);
+    }
     Ok(b.finish())
 }
 
@@ -226,16 +235,30 @@ fn orient(a: [i32; 2], b: [i32; 2], c: [i32; 2]) -> i64 {
 }
 
 /// Whether `d` lies strictly inside the circle through the counter-clockwise
-/// triangle `(a, b, c)` (exact, in `i128`).
+/// triangle `(a, b, c)`. Exact: in `i64` when the coordinates differ by less than
+/// 2^14 (every term then stays below 2^62), else in `i128`.
 fn in_circle(a: [i32; 2], b: [i32; 2], c: [i32; 2], d: [i32; 2]) -> bool {
     let rel = |p: [i32; 2]| {
-        let x = i128::from(p[0]) - i128::from(d[0]);
-        let y = i128::from(p[1]) - i128::from(d[1]);
-        (x, y, x * x + y * y)
+        (
+            i64::from(p[0]) - i64::from(d[0]),
+            i64::from(p[1]) - i64::from(d[1]),
+        )
     };
-    let (ax, ay, aw) = rel(a);
-    let (bx, by, bw) = rel(b);
-    let (cx, cy, cw) = rel(c);
+    let ((ax, ay), (bx, by), (cx, cy)) = (rel(a), rel(b), rel(c));
+    const SMALL: i64 = 1 << 14;
+    if [ax, ay, bx, by, cx, cy].iter().all(|v| v.abs() < SMALL) {
+        let (aw, bw, cw) = (ax * ax + ay * ay, bx * bx + by * by, cx * cx + cy * cy);
+        let det = ax * (by * cw - bw * cy) - ay * (bx * cw - bw * cx) + aw * (bx * cy - by * cx);
+        return det > 0;
+    }
+    let w = |x: i64, y: i64| {
+        (
+            i128::from(x),
+            i128::from(y),
+            i128::from(x) * i128::from(x) + i128::from(y) * i128::from(y),
+        )
+    };
+    let ((ax, ay, aw), (bx, by, bw), (cx, cy, cw)) = (w(ax, ay), w(bx, by), w(cx, cy));
     let det = ax * (by * cw - bw * cy) - ay * (bx * cw - bw * cx) + aw * (bx * cy - by * cx);
     det > 0
 }
@@ -250,22 +273,60 @@ fn round_up(x: f64) -> f32 {
     }
 }
 
-/// The span `lo..=hi` of columns of row `y` inside the counter-clockwise triangle
-/// `(a, b, c)` (edges included), or `None` when the row misses it.
+/// One edge `p → q` of a counter-clockwise triangle as the inequality
+/// `a·x + b·y + c ≥ 0` of the points on its left (inside), with `1/a` for a first
+/// guess of the row's bound.
+#[derive(Clone, Copy)]
+struct Edge {
+    a: i64,
+    b: i64,
+    c: i64,
+    inv_a: f64,
+}
+
+impl Edge {
+    fn new(p: [i32; 2], q: [i32; 2]) -> Self {
+        let (px, py) = (i64::from(p[0]), i64::from(p[1]));
+        let a = py - i64::from(q[1]);
+        let b = i64::from(q[0]) - px;
+        Edge {
+            a,
+            b,
+            c: -b * py - a * px,
+            inv_a: if a == 0 { 0.0 } else { 1.0 / a as f64 },
+        }
+    }
+}
+
+/// The span `lo..=hi` of columns of row `y` inside the triangle of `edges` (edges
+/// included) and inside `lo..=hi` given, or `None` when empty. Each bound is guessed
+/// in floating point (truncated: no `floor` call) and corrected with the exact
+/// integer inequality.
 #[inline]
-fn row_span(v: &[[i32; 2]; 3], y: i64) -> Option<(i64, i64)> {
-    let (mut lo, mut hi) = (i64::MIN, i64::MAX);
-    for k in 0..3 {
-        let (p, q) = (v[k], v[(k + 1) % 3]);
-        // Inside on the left of p→q: (qx−px)(y−py) − (qy−py)(x−px) ≥ 0, i.e. A x + B ≥ 0.
-        let a = -(i64::from(q[1]) - i64::from(p[1]));
-        let bc = (i64::from(q[0]) - i64::from(p[0])) * (y - i64::from(p[1]))
-            + (i64::from(q[1]) - i64::from(p[1])) * i64::from(p[0]);
-        if a > 0 {
-            lo = lo.max(-((bc).div_euclid(a)));
-        } else if a < 0 {
-            hi = hi.min(bc.div_euclid(-a));
-        } else if bc < 0 {
+fn row_span(edges: &[Edge; 3], y: i64, mut lo: i64, mut hi: i64) -> Option<(i64, i64)> {
+    for e in edges {
+        let r = e.b * y + e.c;
+        if e.a > 0 {
+            // The smallest x with a·x + r ≥ 0.
+            let mut x = (-r as f64 * e.inv_a) as i64;
+            while e.a * x + r < 0 {
+                x += 1;
+            }
+            while e.a * (x - 1) + r >= 0 {
+                x -= 1;
+            }
+            lo = lo.max(x);
+        } else if e.a < 0 {
+            // The largest x with a·x + r ≥ 0.
+            let mut x = (-r as f64 * e.inv_a) as i64;
+            while e.a * x + r < 0 {
+                x -= 1;
+            }
+            while e.a * (x + 1) + r >= 0 {
+                x += 1;
+            }
+            hi = hi.min(x);
+        } else if r < 0 {
             return None;
         }
     }
@@ -290,16 +351,19 @@ pub(crate) fn raster(
     let (dz1, dz2) = (z[1] - z[0], z[2] - z[0]);
     let gx = (dz1 * d2y as f64 - dz2 * d1y as f64) / det;
     let gy = (dz2 * d1x as f64 - dz1 * d2x as f64) / det;
+    let edges = [
+        Edge::new(v[0], v[1]),
+        Edge::new(v[1], v[2]),
+        Edge::new(v[2], v[0]),
+    ];
+    let xmin = i64::from(v[0][0].min(v[1][0]).min(v[2][0])).max(cx0);
+    let xmax = i64::from(v[0][0].max(v[1][0]).max(v[2][0])).min(cx1);
     let ymin = i64::from(v[0][1].min(v[1][1]).min(v[2][1])).max(cy0);
     let ymax = i64::from(v[0][1].max(v[1][1]).max(v[2][1])).min(cy1);
     for y in ymin..=ymax {
-        let Some((lo, hi)) = row_span(v, y) else {
+        let Some((lo, hi)) = row_span(&edges, y, xmin, xmax) else {
             continue;
         };
-        let (lo, hi) = (lo.max(cx0), hi.min(cx1));
-        if lo > hi {
-            continue;
-        }
         let z_lo = z[0] + gx * (lo - o[0]) as f64 + gy * (y - o[1]) as f64;
         f(y, lo, hi, z_lo, gx);
     }
@@ -325,6 +389,10 @@ struct Builder<'a> {
     /// Triangles touched by the current insertion.
     touched: Vec<u32>,
     flips: Vec<u32>,
+    /// Triangles emptied by vertex removal (empty until [`Builder::prune`]).
+    dead: Vec<bool>,
+    /// Largest error of the triangles vertex removal made.
+    pruned_max: f64,
 }
 
 impl<'a> Builder<'a> {
@@ -348,6 +416,8 @@ impl<'a> Builder<'a> {
             heap: BinaryHeap::new(),
             touched: Vec::new(),
             flips: Vec::new(),
+            dead: Vec::new(),
+            pruned_max: 0.0,
         };
         let (x0, y0, x1, y1) = (
             region.x0 as i32,
@@ -414,9 +484,8 @@ impl<'a> Builder<'a> {
         let (grid, width) = (self.grid, self.width);
         raster(&v, z, self.clip, |y, lo, hi, z_lo, dz| {
             let row = &grid[y as usize * width..][lo as usize..=hi as usize];
-            let mut zp = z_lo;
             for (i, &h) in row.iter().enumerate() {
-                let d = (f64::from(h) - zp).abs();
+                let d = (f64::from(h) - (z_lo + i as f64 * dz)).abs();
                 if d > best {
                     let x = lo as i32 + i as i32;
                     let p = [x, y as i32];
@@ -425,7 +494,6 @@ impl<'a> Builder<'a> {
                         best_i = (y as usize * width + x as usize) as u32;
                     }
                 }
-                zp += dz;
             }
         });
         let err = if best_i == NONE { 0.0 } else { round_up(best) };
@@ -596,19 +664,216 @@ impl<'a> Builder<'a> {
     }
 
     fn finish(self) -> Tin {
-        let max_error = self.cerr.iter().map(|&e| f64::from(e)).fold(0.0, f64::max);
+        let max_error = self
+            .cerr
+            .iter()
+            .map(|&e| f64::from(e))
+            .fold(self.pruned_max, f64::max);
+        let alive = |t: usize| self.dead.get(t).is_none_or(|d| !d);
+        // Drop removed vertices and dead triangles, keeping the order of the rest.
+        let mut used = vec![false; self.pts.len()];
+        for (t, c) in self.tri.chunks_exact(3).enumerate() {
+            if alive(t) {
+                for &v in c {
+                    used[v as usize] = true;
+                }
+            }
+        }
+        let mut remap = vec![NONE; self.pts.len()];
+        let mut points = Vec::with_capacity(self.pts.len());
+        for (i, p) in self.pts.iter().enumerate() {
+            if used[i] {
+                remap[i] = points.len() as u32;
+                points.push([p[0] as u32, p[1] as u32]);
+            }
+        }
+        let triangles = self
+            .tri
+            .chunks_exact(3)
+            .enumerate()
+            .filter(|&(t, _)| alive(t))
+            .map(|(_, c)| [c[0], c[1], c[2]].map(|v| remap[v as usize]))
+            .collect();
         Tin {
-            points: self
-                .pts
-                .iter()
-                .map(|p| [p[0] as u32, p[1] as u32])
-                .collect(),
-            triangles: self
-                .tri
-                .chunks_exact(3)
-                .map(|c| [c[0], c[1], c[2]])
-                .collect(),
+            points,
+            triangles,
             max_error,
+        }
+    }
+}
+
+/// Largest star (vertex degree) vertex removal tries.
+const MAX_STAR: usize = 32;
+
+/// Vertex removal after the insertion: greedy insertion adds each vertex for the
+/// worst sample of its time, and later vertices nearby often make it unnecessary.
+/// Each inserted interior vertex is tried once, newest first: its star polygon is
+/// re-triangulated by ear clipping (preferring Delaunay ears: no polygon vertex
+/// inside the ear's circumcircle; Devillers 1999), and the removal is kept when every
+/// sample under the new triangles stays within the bound. The samples outside the
+/// star are unaffected (the polygon's edges stay), so the bound keeps holding.
+impl Builder<'_> {
+    fn prune(&mut self, max_error: f64, first: usize) {
+        self.dead = vec![false; self.count() as usize];
+        let mut vedge = vec![NONE; self.pts.len()];
+        for (e, &v) in self.tri.iter().enumerate() {
+            vedge[v as usize] = e as u32;
+        }
+        let (mut ring_e, mut ring_v, mut ears) = (Vec::new(), Vec::new(), Vec::new());
+        for v in (first..self.pts.len()).rev() {
+            if !self.star(vedge[v], &mut ring_e, &mut ring_v) {
+                continue;
+            }
+            let Some(worst) = self.ear_clip(&ring_v, &mut ears, max_error) else {
+                continue;
+            };
+            self.pruned_max = self.pruned_max.max(worst);
+            self.replace_star(&ring_e, &ring_v, &ears, &mut vedge);
+        }
+    }
+
+    /// The half-edges leaving the vertex of `e0` (one per incident triangle, counter-
+    /// clockwise) and the ring of its neighbours; `false` on the region's border or
+    /// beyond [`MAX_STAR`].
+    fn star(&self, e0: u32, ring_e: &mut Vec<u32>, ring_v: &mut Vec<u32>) -> bool {
+        ring_e.clear();
+        ring_v.clear();
+        if e0 == NONE {
+            return false;
+        }
+        let mut e = e0;
+        loop {
+            ring_e.push(e);
+            ring_v.push(self.tri[next(e) as usize]);
+            let t = self.twin[prev(e) as usize];
+            if t == NONE || ring_e.len() > MAX_STAR {
+                return false;
+            }
+            e = t;
+            if e == e0 {
+                return true;
+            }
+        }
+    }
+
+    /// Triangulates the counter-clockwise polygon `ring` (indices into `pts`) into
+    /// `ears` (positions in `ring`), checking each ear's samples as it is cut: the
+    /// largest error, or `None` when an ear exceeds `max_error` or no valid ear is
+    /// left. A convex ear with no polygon vertex inside its circumcircle (Delaunay)
+    /// has none inside it either; when there is none such, any convex ear with no
+    /// vertex inside or on it.
+    fn ear_clip(&self, ring: &[u32], ears: &mut Vec<[usize; 3]>, max_error: f64) -> Option<f64> {
+        ears.clear();
+        let p = |i: usize| self.pts[ring[i] as usize];
+        let mut left: Vec<usize> = (0..ring.len()).collect();
+        let mut worst = 0.0f64;
+        while left.len() > 3 {
+            let n = left.len();
+            let corner = |k: usize| (left[(k + n - 1) % n], left[k], left[(k + 1) % n]);
+            let others = |a: usize, b: usize, c: usize| {
+                left.iter()
+                    .copied()
+                    .filter(move |&o| o != a && o != b && o != c)
+            };
+            let convex = |k: usize| {
+                let (a, b, c) = corner(k);
+                orient(p(a), p(b), p(c)) > 0
+            };
+            let delaunay = (0..n).find(|&k| {
+                let (a, b, c) = corner(k);
+                convex(k) && others(a, b, c).all(|o| !in_circle(p(a), p(b), p(c), p(o)))
+            });
+            let k = delaunay.or_else(|| {
+                (0..n).find(|&k| {
+                    let (a, b, c) = corner(k);
+                    convex(k)
+                        && !others(a, b, c).any(|o| {
+                            orient(p(a), p(b), p(o)) >= 0
+                                && orient(p(b), p(c), p(o)) >= 0
+                                && orient(p(c), p(a), p(o)) >= 0
+                        })
+                })
+            })?;
+            let (a, b, c) = corner(k);
+            worst = worst.max(self.ear_error([ring[a], ring[b], ring[c]], max_error)?);
+            ears.push([a, b, c]);
+            left.remove(k);
+        }
+        let last = [left[0], left[1], left[2]];
+        if orient(p(last[0]), p(last[1]), p(last[2])) <= 0 {
+            return None;
+        }
+        worst = worst.max(self.ear_error(last.map(|i| ring[i]), max_error)?);
+        ears.push(last);
+        Some(worst)
+    }
+
+    /// The largest error of the samples under the triangle of vertices `tri`, or
+    /// `None` past `max_error`.
+    fn ear_error(&self, tri: [u32; 3], max_error: f64) -> Option<f64> {
+        let v = tri.map(|i| self.pts[i as usize]);
+        let z = v.map(|p| self.z(p));
+        let (grid, width) = (self.grid, self.width);
+        let mut worst = 0.0f64;
+        let mut over = false;
+        raster(&v, z, self.clip, |y, lo, hi, z_lo, dz| {
+            if over {
+                return;
+            }
+            let row = &grid[y as usize * width..][lo as usize..=hi as usize];
+            for (i, &h) in row.iter().enumerate() {
+                let d = (f64::from(h) - (z_lo + i as f64 * dz)).abs();
+                worst = if d > worst { d } else { worst };
+            }
+            over = worst > max_error;
+        });
+        (!over).then_some(worst)
+    }
+
+    /// Replaces the star's triangles by the ears (positions in `ring_v`), linking the
+    /// polygon's edges to the triangles outside and the diagonals to each other; the
+    /// two triangles left over are marked dead.
+    fn replace_star(
+        &mut self,
+        ring_e: &[u32],
+        ring_v: &[u32],
+        ears: &[[usize; 3]],
+        vedge: &mut [u32],
+    ) {
+        let k = ring_v.len();
+        // The twin outside each polygon edge ring[i] → ring[i + 1].
+        let outer: Vec<u32> = ring_e
+            .iter()
+            .map(|&e| self.twin[next(e) as usize])
+            .collect();
+        let slots: Vec<u32> = ring_e.iter().map(|&e| e / 3).collect();
+        for (j, ear) in ears.iter().enumerate() {
+            let t = slots[j] as usize;
+            for (m, &i) in ear.iter().enumerate() {
+                self.tri[3 * t + m] = ring_v[i];
+                vedge[ring_v[i] as usize] = (3 * t + m) as u32;
+            }
+        }
+        for (j, ear) in ears.iter().enumerate() {
+            let t = slots[j];
+            for m in 0..3 {
+                let (a, b) = (ear[m], ear[(m + 1) % 3]);
+                let h = 3 * t + m as u32;
+                if b == (a + 1) % k {
+                    self.link(h, outer[a]);
+                } else if let Some((j2, m2)) = ears.iter().enumerate().find_map(|(j2, e2)| {
+                    (0..3)
+                        .find(|&m2| e2[m2] == b && e2[(m2 + 1) % 3] == a)
+                        .map(|m2| (j2, m2))
+                }) {
+                    self.link(h, 3 * slots[j2] + m2 as u32);
+                }
+            }
+        }
+        for &t in &slots[ears.len()..] {
+            self.dead[t as usize] = true;
+            let e = 3 * t as usize;
+            self.twin[e..e + 3].fill(NONE);
         }
     }
 }
@@ -681,10 +946,29 @@ mod tests {
         // (0,0) (4,0) (0,4): row y covers x in 0..=4−y.
         let v = [[0, 0], [4, 0], [0, 4]];
         assert!(orient(v[0], v[1], v[2]) > 0);
+        let e = [
+            Edge::new(v[0], v[1]),
+            Edge::new(v[1], v[2]),
+            Edge::new(v[2], v[0]),
+        ];
         for y in 0..=4 {
-            assert_eq!(row_span(&v, y), Some((0, 4 - y)));
+            assert_eq!(row_span(&e, y, -100, 100), Some((0, 4 - y)));
         }
-        assert_eq!(row_span(&v, 5), None);
+        assert_eq!(row_span(&e, 5, -100, 100), None);
+        // A thin sliver (0,0) (7,3) (6,3).
+        let v = [[0, 0], [7, 3], [6, 3]];
+        assert!(orient(v[0], v[1], v[2]) > 0);
+        let e = [
+            Edge::new(v[0], v[1]),
+            Edge::new(v[1], v[2]),
+            Edge::new(v[2], v[0]),
+        ];
+        assert_eq!(row_span(&e, 0, -100, 100), Some((0, 0)));
+        // Row 1 spans x in [2, 2.33], row 2 x in [4, 4.67]: one sample each.
+        assert_eq!(row_span(&e, 1, -100, 100), Some((2, 2)));
+        assert_eq!(row_span(&e, 2, -100, 100), Some((4, 4)));
+        assert_eq!(row_span(&e, 4, -100, 100), None);
+        assert_eq!(row_span(&e, 3, -100, 100), Some((6, 7)));
     }
 
     #[test]

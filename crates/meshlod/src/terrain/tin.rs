@@ -273,69 +273,71 @@ fn round_up(x: f64) -> f32 {
     }
 }
 
-/// One edge `p → q` of a counter-clockwise triangle as the inequality
-/// `a·x + b·y + c ≥ 0` of the points on its left (inside), with `1/a` for a first
-/// guess of the row's bound.
+/// The column where an edge from `p0` to `p1` (`p1` below or level with `p0`)
+/// crosses successive rows, exactly: `x = q + rem / dy` with `0 ≤ rem < dy`,
+/// stepped row by row with integer adds (a DDA; no division per row).
 #[derive(Clone, Copy)]
-struct Edge {
-    a: i64,
-    b: i64,
-    c: i64,
-    inv_a: f64,
+struct Dda {
+    q: i64,
+    rem: i64,
+    step_q: i64,
+    step_rem: i64,
+    dy: i64,
 }
 
-impl Edge {
-    fn new(p: [i32; 2], q: [i32; 2]) -> Self {
-        let (px, py) = (i64::from(p[0]), i64::from(p[1]));
-        let a = py - i64::from(q[1]);
-        let b = i64::from(q[0]) - px;
-        Edge {
-            a,
-            b,
-            c: -b * py - a * px,
-            inv_a: if a == 0 { 0.0 } else { 1.0 / a as f64 },
+impl Dda {
+    /// The crossing at row `y`.
+    fn new(p0: [i32; 2], p1: [i32; 2], y: i64) -> Self {
+        let (x0, y0) = (i64::from(p0[0]), i64::from(p0[1]));
+        let dx = i64::from(p1[0]) - x0;
+        let dy = i64::from(p1[1]) - y0;
+        if dy == 0 {
+            // Level: used on its own row only, at its first end.
+            return Dda {
+                q: x0,
+                rem: 0,
+                step_q: 0,
+                step_rem: 0,
+                dy: 1,
+            };
+        }
+        let n = (y - y0) * dx;
+        Dda {
+            q: x0 + n.div_euclid(dy),
+            rem: n.rem_euclid(dy),
+            step_q: dx.div_euclid(dy),
+            step_rem: dx.rem_euclid(dy),
+            dy,
         }
     }
-}
 
-/// The span `lo..=hi` of columns of row `y` inside the triangle of `edges` (edges
-/// included) and inside `lo..=hi` given, or `None` when empty. Each bound is guessed
-/// in floating point (truncated: no `floor` call) and corrected with the exact
-/// integer inequality.
-#[inline]
-fn row_span(edges: &[Edge; 3], y: i64, mut lo: i64, mut hi: i64) -> Option<(i64, i64)> {
-    for e in edges {
-        let r = e.b * y + e.c;
-        if e.a > 0 {
-            // The smallest x with a·x + r ≥ 0.
-            let mut x = (-r as f64 * e.inv_a) as i64;
-            while e.a * x + r < 0 {
-                x += 1;
-            }
-            while e.a * (x - 1) + r >= 0 {
-                x -= 1;
-            }
-            lo = lo.max(x);
-        } else if e.a < 0 {
-            // The largest x with a·x + r ≥ 0.
-            let mut x = (-r as f64 * e.inv_a) as i64;
-            while e.a * x + r < 0 {
-                x -= 1;
-            }
-            while e.a * (x + 1) + r >= 0 {
-                x += 1;
-            }
-            hi = hi.min(x);
-        } else if r < 0 {
-            return None;
+    #[inline]
+    fn floor(&self) -> i64 {
+        self.q
+    }
+
+    #[inline]
+    fn ceil(&self) -> i64 {
+        self.q + i64::from(self.rem > 0)
+    }
+
+    #[inline]
+    fn step(&mut self) {
+        self.q += self.step_q;
+        self.rem += self.step_rem;
+        if self.rem >= self.dy {
+            self.rem -= self.dy;
+            self.q += 1;
         }
     }
-    (lo <= hi).then_some((lo, hi))
 }
 
 /// Visits every grid sample inside or on the counter-clockwise triangle `v`, clipped
 /// to columns `cx0..=cx1` and rows `cy0..=cy1`: `f(row, x_lo, x_hi, z_lo, dz)` per
 /// row, where the plane through the vertices' heights `z` is `z_lo + dz·(x − x_lo)`.
+///
+/// The vertices are taken top to bottom; the long edge bounds one side of every
+/// row, the two short edges the other, each followed exactly by a [`Dda`].
 #[inline]
 pub(crate) fn raster(
     v: &[[i32; 2]; 3],
@@ -351,21 +353,41 @@ pub(crate) fn raster(
     let (dz1, dz2) = (z[1] - z[0], z[2] - z[0]);
     let gx = (dz1 * d2y as f64 - dz2 * d1y as f64) / det;
     let gy = (dz2 * d1x as f64 - dz1 * d2x as f64) / det;
-    let edges = [
-        Edge::new(v[0], v[1]),
-        Edge::new(v[1], v[2]),
-        Edge::new(v[2], v[0]),
-    ];
-    let xmin = i64::from(v[0][0].min(v[1][0]).min(v[2][0])).max(cx0);
-    let xmax = i64::from(v[0][0].max(v[1][0]).max(v[2][0])).min(cx1);
-    let ymin = i64::from(v[0][1].min(v[1][1]).min(v[2][1])).max(cy0);
-    let ymax = i64::from(v[0][1].max(v[1][1]).max(v[2][1])).min(cy1);
-    for y in ymin..=ymax {
-        let Some((lo, hi)) = row_span(&edges, y, xmin, xmax) else {
-            continue;
+    let mut s = *v;
+    s.sort_unstable_by_key(|p| p[1]);
+    let [t, m, b] = s;
+    // The middle vertex left of the long edge: the short edges bound the left.
+    let short_left = orient(t, b, m) > 0;
+    let (my, y0, y1) = (
+        i64::from(m[1]),
+        i64::from(t[1]).max(cy0),
+        i64::from(b[1]).min(cy1),
+    );
+    if y0 > y1 {
+        return;
+    }
+    let mut long = Dda::new(t, b, y0);
+    let mut short = if y0 < my {
+        Dda::new(t, m, y0)
+    } else {
+        Dda::new(m, b, y0)
+    };
+    for y in y0..=y1 {
+        if y == my && y > y0 {
+            short = Dda::new(m, b, y);
+        }
+        let (lo, hi) = if short_left {
+            (short.ceil(), long.floor())
+        } else {
+            (long.ceil(), short.floor())
         };
-        let z_lo = z[0] + gx * (lo - o[0]) as f64 + gy * (y - o[1]) as f64;
-        f(y, lo, hi, z_lo, gx);
+        let (lo, hi) = (lo.max(cx0), hi.min(cx1));
+        if lo <= hi {
+            let z_lo = z[0] + gx * (lo - o[0]) as f64 + gy * (y - o[1]) as f64;
+            f(y, lo, hi, z_lo, gx);
+        }
+        long.step();
+        short.step();
     }
 }
 
@@ -941,34 +963,45 @@ pub fn measure(tin: &Tin, heights: &[f32], width: usize) -> Deviation {
 mod tests {
     use super::*;
 
-    #[test]
-    fn row_span_of_a_right_triangle() {
-        // (0,0) (4,0) (0,4): row y covers x in 0..=4−y.
-        let v = [[0, 0], [4, 0], [0, 4]];
-        assert!(orient(v[0], v[1], v[2]) > 0);
-        let e = [
-            Edge::new(v[0], v[1]),
-            Edge::new(v[1], v[2]),
-            Edge::new(v[2], v[0]),
-        ];
-        for y in 0..=4 {
-            assert_eq!(row_span(&e, y, -100, 100), Some((0, 4 - y)));
+    /// The spans of `raster` against a brute-force test of every sample.
+    fn check_raster(v: [[i32; 2]; 3], clip: [i64; 4]) {
+        let mut got = Vec::new();
+        raster(&v, [0.0; 3], clip, |y, lo, hi, _, _| {
+            got.extend((lo..=hi).map(|x| (y, x)));
+        });
+        let mut want = Vec::new();
+        for y in clip[1]..=clip[3] {
+            for x in clip[0]..=clip[2] {
+                let p = [x as i32, y as i32];
+                if (0..3).all(|k| orient(v[k], v[(k + 1) % 3], p) >= 0) {
+                    want.push((y, x));
+                }
+            }
         }
-        assert_eq!(row_span(&e, 5, -100, 100), None);
-        // A thin sliver (0,0) (7,3) (6,3).
-        let v = [[0, 0], [7, 3], [6, 3]];
-        assert!(orient(v[0], v[1], v[2]) > 0);
-        let e = [
-            Edge::new(v[0], v[1]),
-            Edge::new(v[1], v[2]),
-            Edge::new(v[2], v[0]),
-        ];
-        assert_eq!(row_span(&e, 0, -100, 100), Some((0, 0)));
-        // Row 1 spans x in [2, 2.33], row 2 x in [4, 4.67]: one sample each.
-        assert_eq!(row_span(&e, 1, -100, 100), Some((2, 2)));
-        assert_eq!(row_span(&e, 2, -100, 100), Some((4, 4)));
-        assert_eq!(row_span(&e, 4, -100, 100), None);
-        assert_eq!(row_span(&e, 3, -100, 100), Some((6, 7)));
+        assert_eq!(got, want, "{v:?}");
+    }
+
+    #[test]
+    fn raster_covers_exactly_the_closed_triangle() {
+        // (0,0) (4,0) (0,4): row y covers x in 0..=4−y.
+        check_raster([[0, 0], [4, 0], [0, 4]], [-2, -2, 9, 9]);
+        // A sliver (0,0) (7,3) (6,3): rows 1 and 2 hold one sample each.
+        check_raster([[0, 0], [7, 3], [6, 3]], [-2, -2, 9, 9]);
+        // Clipped.
+        check_raster([[0, 0], [7, 3], [6, 3]], [1, 1, 6, 2]);
+        // Every small triangle on a 5 × 5 lattice, both orientations fixed to CCW.
+        let pts: Vec<[i32; 2]> = (0..25).map(|i| [i % 5, i / 5]).collect();
+        for a in 0..25 {
+            for b in 0..25 {
+                for c in 0..25 {
+                    let v = [pts[a], pts[b], pts[c]];
+                    if orient(v[0], v[1], v[2]) > 0 {
+                        check_raster(v, [-1, -1, 5, 5]);
+                        check_raster(v, [1, 0, 3, 4]);
+                    }
+                }
+            }
+        }
     }
 
     #[test]

@@ -4,10 +4,13 @@
     python bench/terrain.py [--meshlod target/release/meshlod] [--verify]
                             [--bounds 1,2,5] [--repeat 3] [--data DIR]
 
+DIR/N57E011_3601.hgt, an SRTM-1-sized grid, is made by `bench/make_heightfield_png.py
+--hgt3601` (the shared 3" tile resampled bilinearly to 3601 x 3601).
+
 Needs numpy, Pillow, pydelatin and pymartini (a venv: `python3 -m venv tvenv &&
 tvenv/bin/pip install numpy pillow pydelatin pymartini`). Height fields: the shared
 Grand Canyon PNG (1200 x 1200, grey levels), the two shared SRTM-3 tiles (1201 x 1201,
-metres), and the 4097 x 2049 Grand Canyon resample (`bench/make_heightfield_png.py`,
+metres; voids filled for the peers as meshlod fills them), and the 4097 x 2049 Grand Canyon resample (`bench/make_heightfield_png.py`,
 16-bit, heights x 2 as make_terrain.py's grid meshes: --z-scale 2/256) when
 DIR/gc4097x2049.png exists.
 
@@ -39,10 +42,30 @@ def load(path, z_scale):
         a = np.fromfile(path, dtype=">i2").astype(np.float32)
         n = int(round(len(a) ** 0.5))
         a = a.reshape(n, n)
-        if (a == -32768).any():
-            raise SystemExit(f"{path}: has voids; the peers have no void filling")
-        return a
+        return fill_voids(a, a == -32768)
     return np.asarray(Image.open(path)).astype(np.float32) * np.float32(z_scale)
+
+
+def fill_voids(a, void):
+    """meshlod's void filling (heightfield.rs), for the peers: layer by layer, each
+    void touching a valid sample takes the mean of its valid 8-neighbours."""
+    a = a.astype(np.float64)
+    a[void] = np.nan
+    while np.isnan(a).any():
+        p = np.pad(a, 1, constant_values=np.nan)
+        s = np.zeros_like(a); k = np.zeros_like(a)
+        for dy in (-1, 0, 1):
+            for dx in (-1, 0, 1):
+                if dy == 0 and dx == 0:
+                    continue
+                n = p[1 + dy:1 + dy + a.shape[0], 1 + dx:1 + dx + a.shape[1]]
+                ok = ~np.isnan(n)
+                s[ok] += n[ok]; k[ok] += 1
+        layer = np.isnan(a) & (k > 0)
+        if not layer.any():
+            raise SystemExit("every sample is void")
+        a[layer] = s[layer] / k[layer]
+    return a.astype(np.float32)
 
 
 def write_hgt_like(a, path):
@@ -50,13 +73,13 @@ def write_hgt_like(a, path):
     Image.fromarray(a.astype(np.uint16)).save(path)
 
 
-def run_meshlod(exe, path, E, z_scale, repeat):
+def run_meshlod(exe, path, E, z_scale, repeat, extra=()):
     best = None
     for _ in range(repeat):
         with tempfile.TemporaryDirectory() as d:
             out = subprocess.run(
                 [exe, "terrain", path, "-o", os.path.join(d, "t.ply"), "--max-error",
-                 str(E), "--z-scale", repr(z_scale), "--json"],
+                 str(E), "--z-scale", repr(z_scale), "--json", *extra],
                 check=True, capture_output=True, text=True).stdout
         r = json.loads(out)
         if best is None or r["seconds"] < best["seconds"]:
@@ -139,10 +162,11 @@ def main():
         ("N40W074.hgt (m)", os.path.join(SHARED, "srtm", "N40W074.hgt"), 1.0),
         ("N57E011.hgt (m)", os.path.join(SHARED, "srtm", "N57E011.hgt"), 1.0),
         ("gcanyon 4097x2049 (grey x 2)", os.path.join(a.data, "gc4097x2049.png"), 2.0 / 256),
+        ("N57E011 resampled 3601^2 (m)", os.path.join(a.data, "N57E011_3601.hgt"), 1.0),
     ]
     print(f"# {time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}, meshlod {a.meshlod}")
-    print("| height field | E | meshlod tris | meshlod s | pydelatin tris | pydelatin s | pymartini tris | pymartini s | meshlod max err |")
-    print("|---|---:|---:|---:|---:|---:|---:|---:|---:|")
+    print("| height field | E | meshlod tris | meshlod s | --no-prune tris | --no-prune s | pydelatin tris | pydelatin s | pymartini tris | pymartini s | meshlod max err | meshlod B/sample |")
+    print("|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|")
     tmp = tempfile.mkdtemp()
     for name, path, zs in fields:
         if not os.path.exists(path):
@@ -150,7 +174,7 @@ def main():
             continue
         grid = load(path, zs)
         runs = [(name, path, zs, grid)]
-        if grid.shape[0] != 2049:
+        if grid.shape[0] not in (2049, 3601):
             crop = np.ascontiguousarray(grid[:1025, :1025])
             cpath = os.path.join(tmp, os.path.basename(path) + ".crop.png")
             write_hgt_like(crop - crop.min(), cpath)  # metres, shifted to >= 0
@@ -158,15 +182,18 @@ def main():
         for label, p, z, g in runs:
             for E in bounds:
                 m = run_meshlod(a.meshlod, p, E, z, a.repeat)
+                q = run_meshlod(a.meshlod, p, E, z, a.repeat, ["--no-prune"])
                 dt, dv, df = run_delatin(g, E, a.repeat)
                 square = g.shape[0] in (1025, 2049) and g.shape[1] in (g.shape[0], 2 * g.shape[0] - 1)
                 mt = run_martini(g, E, a.repeat) if square else None
                 mcell = f"{sum(len(t) for t in mt[2])} | {mt[0]:.3f}" if mt else "– | –"
-                print(f"| {label} | {E:g} | {m['triangles']} | {m['seconds']:.3f} | {len(df) // 3 if df.ndim == 1 else len(df)} | {dt:.3f} | {mcell} | {m['max_error']:.4f} |", flush=True)
+                nd = len(df) // 3 if df.ndim == 1 else len(df)
+                bps = m.get("peak_rss_bytes_per_sample") or float("nan")
+                print(f"| {label} | {E:g} | {m['triangles']} | {m['seconds']:.3f} | {q['triangles']} | {q['seconds']:.3f} | {nd} | {dt:.3f} | {mcell} | {m['max_error']:.4f} | {bps:.1f} |", flush=True)
                 if a.verify:
                     de = max_error(g, [dv], [df])
                     me = max_error(g, mt[1], mt[2]) if mt else float("nan")
-                    print(f"|  verified max error | | | | {de:.4f} | | {me:.4f} | | |", flush=True)
+                    print(f"| verified max error | | | | | | {de:.4f} | | {me:.4f} | | | |", flush=True)
 
 
 if __name__ == "__main__":

@@ -17,11 +17,10 @@
 //!    ch. 9), and only the triangles created or changed are rescanned;
 //! 4. stop when the worst candidate is within the bound (or a triangle budget is met).
 //!
-//! Heap entries are invalidated lazily: an entry whose error is not the triangle's
-//! current error is skipped when popped, and the heap is rebuilt from the live
-//! triangles when stale entries outnumber them. Each insertion rescans the area of the
-//! triangles it changed, so the cost is about `O((m + n) log m)` for `n` samples and
-//! `m` inserted points, as in the paper.
+//! The heap is indexed (each triangle knows its place), so a rescanned triangle moves
+//! in place and the heap holds only live triangles with an error. Each insertion
+//! rescans the area of the triangles it changed, so the cost is about
+//! `O((m + n) log m)` for `n` samples and `m` inserted points, as in the paper.
 //!
 //! All geometric predicates (orientation, in-circle) are exact: vertices are grid
 //! samples with integer coordinates, evaluated in `i64`/`i128`. Ties break by
@@ -29,9 +28,8 @@
 //!
 //! Storage is compact arrays indexed by `u32`: three vertex ids and three twin
 //! half-edges per triangle, the candidate sample and its error (rounded *up* to `f32`,
-//! so stopping at `error ≤ E` never under-reports), and `u64` heap keys.
-
-use std::collections::BinaryHeap;
+//! so stopping at `error ≤ E` never under-reports), and the heap's `u32` entries and
+//! positions.
 
 /// No twin (a border edge) / no candidate.
 const NONE: u32 = u32::MAX;
@@ -391,6 +389,99 @@ pub(crate) fn raster(
     }
 }
 
+/// A max-heap of triangles by `(error bits, triangle)` (errors are non-negative, so
+/// their bits order as the values; ties go to the larger id), indexed: `pos[t]` is
+/// the triangle's place, or [`NONE`] when it has no error.
+#[derive(Default)]
+struct TriHeap {
+    heap: Vec<u32>,
+    pos: Vec<u32>,
+}
+
+impl TriHeap {
+    #[inline]
+    fn key(cerr: &[f32], t: u32) -> u64 {
+        (u64::from(cerr[t as usize].to_bits()) << 32) | u64::from(t)
+    }
+
+    fn top(&self) -> Option<u32> {
+        self.heap.first().copied()
+    }
+
+    /// Puts `t` where its (new) error `cerr[t]` belongs; out when the error is 0.
+    fn update(&mut self, cerr: &[f32], t: u32) {
+        if self.pos.len() <= t as usize {
+            self.pos.resize(t as usize + 1, NONE);
+        }
+        let i = self.pos[t as usize];
+        if cerr[t as usize] > 0.0 {
+            if i == NONE {
+                self.heap.push(t);
+                let i = self.heap.len() - 1;
+                self.pos[t as usize] = i as u32;
+                self.up(cerr, i);
+            } else {
+                let i = self.up(cerr, i as usize);
+                self.down(cerr, i);
+            }
+        } else if i != NONE {
+            let last = self.heap.pop().unwrap_or(t);
+            self.pos[t as usize] = NONE;
+            if last != t {
+                self.heap[i as usize] = last;
+                self.pos[last as usize] = i;
+                let i = self.up(cerr, i as usize);
+                self.down(cerr, i);
+            }
+        }
+    }
+
+    fn up(&mut self, cerr: &[f32], mut i: usize) -> usize {
+        let t = self.heap[i];
+        let k = Self::key(cerr, t);
+        while i > 0 {
+            let parent = (i - 1) / 2;
+            let pt = self.heap[parent];
+            if Self::key(cerr, pt) >= k {
+                break;
+            }
+            self.heap[i] = pt;
+            self.pos[pt as usize] = i as u32;
+            i = parent;
+        }
+        self.heap[i] = t;
+        self.pos[t as usize] = i as u32;
+        i
+    }
+
+    fn down(&mut self, cerr: &[f32], mut i: usize) {
+        let n = self.heap.len();
+        let t = self.heap[i];
+        let k = Self::key(cerr, t);
+        loop {
+            let l = 2 * i + 1;
+            if l >= n {
+                break;
+            }
+            let r = l + 1;
+            let c = if r < n && Self::key(cerr, self.heap[r]) > Self::key(cerr, self.heap[l]) {
+                r
+            } else {
+                l
+            };
+            let ct = self.heap[c];
+            if Self::key(cerr, ct) <= k {
+                break;
+            }
+            self.heap[i] = ct;
+            self.pos[ct as usize] = i as u32;
+            i = c;
+        }
+        self.heap[i] = t;
+        self.pos[t as usize] = i as u32;
+    }
+}
+
 struct Builder<'a> {
     grid: &'a [f32],
     width: usize,
@@ -406,8 +497,8 @@ struct Builder<'a> {
     cand: Vec<u32>,
     /// Candidate error of each triangle, rounded up; 0 when none.
     cerr: Vec<f32>,
-    /// `(error bits << 32) | triangle`: the largest error first, then the largest id.
-    heap: BinaryHeap<u64>,
+    /// Triangles with an error, the worst first.
+    heap: TriHeap,
     /// Triangles touched by the current insertion.
     touched: Vec<u32>,
     flips: Vec<u32>,
@@ -435,7 +526,7 @@ impl<'a> Builder<'a> {
             twin: Vec::new(),
             cand: Vec::new(),
             cerr: Vec::new(),
-            heap: BinaryHeap::new(),
+            heap: TriHeap::default(),
             touched: Vec::new(),
             flips: Vec::new(),
             dead: Vec::new(),
@@ -521,22 +612,15 @@ impl<'a> Builder<'a> {
         let err = if best_i == NONE { 0.0 } else { round_up(best) };
         self.cand[t as usize] = best_i;
         self.cerr[t as usize] = err;
-        if err > 0.0 {
-            self.heap
-                .push((u64::from(err.to_bits()) << 32) | u64::from(t));
-        }
+        self.heap.update(&self.cerr, t);
     }
 
     /// Greedy insertion until the bound or the budget holds.
     fn run(&mut self, options: &TinOptions, mut progress: Option<ProgressFn<'_>>) {
         let budget = options.max_triangles.unwrap_or(usize::MAX);
         let mut inserted = 0usize;
-        while let Some(key) = self.heap.pop() {
-            let t = (key & 0xffff_ffff) as u32;
-            let err = f32::from_bits((key >> 32) as u32);
-            if self.cerr[t as usize].to_bits() != err.to_bits() {
-                continue;
-            }
+        while let Some(t) = self.heap.top() {
+            let err = self.cerr[t as usize];
             if f64::from(err) <= options.max_error || self.count() as usize >= budget {
                 break;
             }
@@ -551,9 +635,6 @@ impl<'a> Builder<'a> {
             }
             self.touched = touched;
             self.touched.clear();
-            if self.heap.len() > 2 * self.count() as usize + 1024 {
-                self.rebuild_heap();
-            }
             inserted += 1;
             if inserted % 4096 == 0 {
                 if let Some(f) = progress.as_mut() {
@@ -561,14 +642,6 @@ impl<'a> Builder<'a> {
                 }
             }
         }
-    }
-
-    fn rebuild_heap(&mut self) {
-        let keys: Vec<u64> = (0..self.count())
-            .filter(|&t| self.cerr[t as usize] > 0.0)
-            .map(|t| (u64::from(self.cerr[t as usize].to_bits()) << 32) | u64::from(t))
-            .collect();
-        self.heap = BinaryHeap::from(keys);
     }
 
     /// Inserts `p` (inside or on the border of triangle `t`, not a vertex of it).

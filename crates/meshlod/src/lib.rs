@@ -17,7 +17,9 @@
 //! - [`collapse`]: the edge-collapse operator and its legality checks;
 //! - [`cost`]: cost models (what to collapse first); [`filter`]: vetoes;
 //! - [`decimate`]: the drivers (priority queue, stop rules, reports, observers);
-//! - [`lod`]: progressive meshes (vertex splits, `.pmesh` files, navigation, geomorphs).
+//! - [`lod`]: progressive meshes (vertex splits, `.pmesh` files, navigation, geomorphs);
+//! - [`terrain`]: height fields (PNG, SRTM `.hgt`, ESRI `.asc`, GeoTIFF) to triangulated
+//!   irregular networks within a vertical bound (Garland & Heckbert 1995), and tiles.
 
 pub mod collapse;
 pub mod cost;

@@ -72,23 +72,30 @@ proptest! {
     #![proptest_config(ProptestConfig::with_cases(64))]
 
     /// The bound holds at every sample, the TIN is valid, and the reported error is
-    /// the measured one (rounded up).
+    /// the measured one (rounded up); with and without the vertex-removal pass, which
+    /// only ever removes triangles.
     #[test]
     fn bound_holds_at_every_sample(
         w in 2usize..40, h in 2usize..40, seed in any::<u64>(),
         noise in 0.0f32..8.0, e in 0.0f64..4.0,
     ) {
         let heights = field(w, h, seed, noise);
-        let tin = build_tin(&heights, w, h, &opts(e, None)).unwrap();
-        check_valid(&tin, [0, 0, w as u32 - 1, h as u32 - 1]);
-        let dev = measure(&tin, &heights, w);
-        prop_assert_eq!(dev.covered, w * h);
-        prop_assert!(dev.max <= e + 1e-9, "max {} > bound {}", dev.max, e);
-        prop_assert!(dev.max <= tin.max_error + 1e-9, "measured {} > reported {}", dev.max, tin.max_error);
-        let hf = HeightField::from_heights(w, h, heights.clone()).unwrap();
-        let mesh = tin_to_mesh(&tin, &hf);
-        prop_assert_eq!(mesh.triangles.len(), tin.triangles.len());
-        prop_assert_eq!(mesh.positions.len(), tin.points.len());
+        let plain = TinOptions { prune: false, ..opts(e, None) };
+        let mut counts = Vec::new();
+        for o in [opts(e, None), plain] {
+            let tin = build_tin(&heights, w, h, &o).unwrap();
+            check_valid(&tin, [0, 0, w as u32 - 1, h as u32 - 1]);
+            let dev = measure(&tin, &heights, w);
+            prop_assert_eq!(dev.covered, w * h);
+            prop_assert!(dev.max <= e + 1e-9, "max {} > bound {}", dev.max, e);
+            prop_assert!(dev.max <= tin.max_error + 1e-9, "measured {} > reported {}", dev.max, tin.max_error);
+            let hf = HeightField::from_heights(w, h, heights.clone()).unwrap();
+            let mesh = tin_to_mesh(&tin, &hf);
+            prop_assert_eq!(mesh.triangles.len(), tin.triangles.len());
+            prop_assert_eq!(mesh.positions.len(), tin.points.len());
+            counts.push(tin.triangles.len());
+        }
+        prop_assert!(counts[0] <= counts[1], "pruned {} > plain {}", counts[0], counts[1]);
     }
 
     /// A triangle budget stops the insertion as soon as it is met.

@@ -3,7 +3,7 @@
 
 use meshlod::terrain::heightfield::{read_height_field, HeightField};
 use meshlod::terrain::tin::{build_tin, measure, Tin, TinOptions};
-use meshlod::terrain::{build_tiles, tin_to_mesh};
+use meshlod::terrain::{build_tiles, build_tin_blocked, tin_to_mesh};
 use proptest::prelude::*;
 use std::collections::{BTreeSet, HashSet};
 use std::io::Write;
@@ -246,6 +246,22 @@ fn tiles_match_on_their_borders_and_hold_the_bound() {
 
 proptest! {
     #![proptest_config(ProptestConfig::with_cases(24))]
+
+    /// Blocks merged into one TIN: a valid triangulation of the whole grid (no
+    /// duplicate vertex on the joins, areas summing to the rectangle's: no crack, no
+    /// overlap) within the bound at every sample.
+    #[test]
+    fn blocked_tin_is_one_valid_triangulation(
+        w in 2usize..60, h in 2usize..60, b in 2usize..24, seed in any::<u64>(), e in 0.0f64..3.0,
+    ) {
+        let heights = field(w, h, seed, 6.0);
+        let tin = build_tin_blocked(&heights, w, h, b, &opts(e, None)).unwrap();
+        check_valid(&tin, [0, 0, w as u32 - 1, h as u32 - 1]);
+        let dev = measure(&tin, &heights, w);
+        prop_assert_eq!(dev.covered, w * h);
+        prop_assert!(dev.max <= e + 1e-9, "max {} > bound {}", dev.max, e);
+    }
+
     #[test]
     fn random_tiles_have_no_cracks(
         w in 3usize..50, h in 3usize..50, t in 2usize..20, seed in any::<u64>(), e in 0.0f64..3.0,

@@ -17,7 +17,7 @@ pub mod tiles;
 pub mod tin;
 
 pub use heightfield::{read_height_field, HeightField, HeightFieldError};
-pub use tiles::{build_tiles, Tile};
+pub use tiles::{build_tiles, build_tin_blocked, Tile};
 pub use tin::{build_tin, measure, Deviation, Tin, TinError, TinOptions};
 
 use crate::Mesh;

@@ -157,6 +157,52 @@ pub fn build_tiles(
         .collect()
 }
 
+/// One TIN of the whole grid built as blocks: the tiles of [`build_tiles`] (blocks of
+/// `block` samples a side, crack-free borders) merged into one triangulation, the
+/// vertices on shared borders joined. Every sample stays within `options.max_error`.
+///
+/// Against [`super::tin::build_tin`] on the whole grid at once: about the same
+/// triangle count (the block borders are simplified in 1D, then frozen), and about
+/// twice as fast on one thread on large grids (the first insertions of a whole-grid
+/// run rescan the whole grid; a block's working set stays in cache), faster again on
+/// several threads. The output does not depend on the thread count.
+///
+/// # Errors
+/// As [`build_tiles`].
+pub fn build_tin_blocked(
+    heights: &[f32],
+    width: usize,
+    height: usize,
+    block: usize,
+    options: &TinOptions,
+) -> Result<Tin, TinError> {
+    let tiles = build_tiles(heights, width, height, block, options)?;
+    let mut id = std::collections::HashMap::new();
+    let mut points = Vec::new();
+    let mut triangles = Vec::new();
+    let mut max_error = 0.0f64;
+    for tile in &tiles {
+        let tin = &tile.tin;
+        max_error = max_error.max(tin.max_error);
+        let map: Vec<u32> = tin
+            .points
+            .iter()
+            .map(|&p| {
+                *id.entry(p).or_insert_with(|| {
+                    points.push(p);
+                    (points.len() - 1) as u32
+                })
+            })
+            .collect();
+        triangles.extend(tin.triangles.iter().map(|t| t.map(|v| map[v as usize])));
+    }
+    Ok(Tin {
+        points,
+        triangles,
+        max_error,
+    })
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

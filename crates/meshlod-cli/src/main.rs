@@ -24,6 +24,7 @@ mod measure;
 mod memory;
 mod pm;
 mod simplify;
+mod terrain;
 
 use clap::{CommandFactory, FromArgMatches, Parser, Subcommand};
 use std::process::ExitCode;
@@ -61,6 +62,9 @@ enum Command {
     /// Progressive meshes: build a .pmesh, extract a level.
     #[command(subcommand)]
     Pm(pm::PmCommand),
+    /// Height field (PNG, SRTM .hgt, ESRI .asc, GeoTIFF) to a triangulated irregular
+    /// network within a vertical error bound, as one mesh or crack-free tiles.
+    Terrain(Box<terrain::TerrainArgs>),
 }
 
 /// The error and its causes on one line, `: `-separated, each once: a cause whose
@@ -143,6 +147,7 @@ fn main() -> ExitCode {
         Command::Lod(args) => lod::run(&args),
         Command::Dag(cmd) => dag::run(&cmd),
         Command::Pm(cmd) => pm::run(&cmd),
+        Command::Terrain(args) => terrain::run(&args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -17,7 +17,9 @@
 //! - [`collapse`]: the edge-collapse operator and its legality checks;
 //! - [`cost`]: cost models (what to collapse first); [`filter`]: vetoes;
 //! - [`decimate`]: the drivers (priority queue, stop rules, reports, observers);
-//! - [`lod`]: progressive meshes (vertex splits, `.pmesh` files, navigation, geomorphs).
+//! - [`lod`]: progressive meshes (vertex splits, `.pmesh` files, navigation, geomorphs);
+//! - [`terrain`]: height fields (PNG, SRTM `.hgt`, ESRI `.asc`, GeoTIFF) to triangulated
+//!   irregular networks within a vertical bound (Garland & Heckbert 1995), and tiles.
 
 pub mod collapse;
 pub mod cost;
@@ -31,6 +33,7 @@ pub mod metrics;
 pub mod quadric;
 mod radix;
 pub mod simplify;
+pub mod terrain;
 
 pub use io::{read_mesh, read_scene, write_mesh, write_scene, Scene};
 pub use mesh::{Mesh, MeshStats};

@@ -17,7 +17,8 @@
 //! - [`collapse`]: the edge-collapse operator and its legality checks;
 //! - [`cost`]: cost models (what to collapse first); [`filter`]: vetoes;
 //! - [`decimate`]: the drivers (priority queue, stop rules, reports, observers);
-//! - [`lod`]: progressive meshes (vertex splits, `.pmesh` files, navigation, geomorphs).
+//! - [`lod`]: progressive meshes (vertex splits, `.pmesh` files, navigation, geomorphs);
+//! - [`render`]: pictures on the CPU (z-buffer rasterizer, heat maps, PNG).
 
 pub mod collapse;
 pub mod cost;
@@ -30,6 +31,7 @@ pub mod mesh;
 pub mod metrics;
 pub mod quadric;
 mod radix;
+pub mod render;
 pub mod simplify;
 
 pub use io::{read_mesh, read_scene, write_mesh, write_scene, Scene};

@@ -22,6 +22,7 @@ mod lod;
 mod measure;
 mod memory;
 mod pm;
+mod render;
 mod simplify;
 
 use clap::{CommandFactory, FromArgMatches, Parser, Subcommand};
@@ -56,6 +57,9 @@ enum Command {
     /// Progressive meshes: build a .pmesh, extract a level.
     #[command(subcommand)]
     Pm(pm::PmCommand),
+    /// Draw meshes to a PNG picture: side by side, shaded, with an optional
+    /// wireframe and a heat map of the distance to a reference.
+    Render(Box<render::RenderArgs>),
 }
 
 /// The error and its causes on one line, `: `-separated, each once: a cause whose
@@ -137,6 +141,7 @@ fn main() -> ExitCode {
         Command::Simplify(args) => simplify::run(&args),
         Command::Lod(args) => lod::run(&args),
         Command::Pm(cmd) => pm::run(&cmd),
+        Command::Render(args) => render::run(&args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

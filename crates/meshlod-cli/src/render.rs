@@ -1,6 +1,7 @@
 //! `meshlod render IN [IN2 ...] -o out.png`: pictures of meshes, side by side, with
 //! an optional wireframe and a heat map of the distance to a reference.
 
+use crate::memory::{MemoryReport, Phases};
 use anyhow::{bail, Context, Result};
 use meshlod::metrics::bvh::Bvh;
 use meshlod::render::{self, Canvas, HeatScale, RenderOptions, Shading, View, MAX_SIZE};
@@ -65,6 +66,10 @@ struct PanelReport {
     read_seconds: f64,
     /// Seconds to draw the panel (and compute its heat-map distances).
     seconds: f64,
+    /// Resident memory: the peak, after reading this input, and the drawing's peak
+    /// above that per triangle (Linux only).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    memory: Option<MemoryReport>,
 }
 
 #[derive(Serialize)]
@@ -110,8 +115,10 @@ fn panel_report(
     s: render::PanelStats,
     read: f64,
     t: Instant,
+    phases: Option<Phases>,
 ) -> PanelReport {
     PanelReport {
+        memory: phases.and_then(|p| p.report(s.triangles)),
         input: path.display().to_string(),
         triangles: s.triangles,
         vertices: m.vertex_count(),
@@ -181,6 +188,7 @@ fn draw_streaming(args: &RenderArgs, opts: &RenderOptions) -> Result<Vec<PanelRe
     let mut panels = Vec::new();
     for (i, path) in args.inputs.iter().enumerate() {
         let (mesh, read_s) = read(path)?;
+        let phases = Phases::after_read();
         let c = match canvas.as_mut() {
             Some(c) => c,
             None => canvas.insert(Canvas::new(
@@ -194,7 +202,7 @@ fn draw_streaming(args: &RenderArgs, opts: &RenderOptions) -> Result<Vec<PanelRe
         let s = c
             .draw(i, &mesh, None, &label(path))
             .with_context(|| format!("{}: cannot draw", path.display()))?;
-        panels.push(panel_report(path, &mesh, s, read_s, t));
+        panels.push(panel_report(path, &mesh, s, read_s, t, Some(phases)));
     }
     let image = canvas.context("no input")?.finish();
     image
@@ -242,7 +250,7 @@ fn draw_heatmap(
         let s = canvas
             .draw(i, m, Some(v), &label(path))
             .with_context(|| format!("{}: cannot draw", path.display()))?;
-        let mut p = panel_report(path, m, s, *read_s, t);
+        let mut p = panel_report(path, m, s, *read_s, t, None);
         p.seconds += dist_s;
         panels.push(p);
     }

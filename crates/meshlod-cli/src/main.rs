@@ -24,6 +24,7 @@ mod memory;
 mod pm;
 mod render;
 mod simplify;
+mod textures;
 
 use clap::{CommandFactory, FromArgMatches, Parser, Subcommand};
 use std::process::ExitCode;

@@ -4,8 +4,8 @@
 use crate::memory::{MemoryReport, Phases};
 use anyhow::{bail, Context, Result};
 use meshlod::metrics::bvh::Bvh;
-use meshlod::render::{self, Canvas, HeatScale, RenderOptions, Shading, View, MAX_SIZE};
-use meshlod::{read_mesh, Mesh};
+use meshlod::render::{self, Canvas, HeatScale, RenderOptions, Shading, Texture, View, MAX_SIZE};
+use meshlod::Mesh;
 use serde::Serialize;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -42,6 +42,13 @@ pub struct RenderArgs {
     /// reference's bounding-box diagonal).
     #[arg(long, value_name = "REF")]
     pub heatmap_vs: Option<PathBuf>,
+    /// Colour every input with this PNG texture (at its UVs) instead of the
+    /// textures its materials name (OBJ `map_Kd`, glTF base colour).
+    #[arg(long, value_name = "IMAGE.png", conflicts_with = "no_textures")]
+    pub texture: Option<PathBuf>,
+    /// Draw without textures even when the inputs' materials have them.
+    #[arg(long)]
+    pub no_textures: bool,
     /// Print one JSON object instead of text.
     #[arg(long)]
     pub json: bool,
@@ -102,11 +109,27 @@ fn label(path: &Path) -> String {
     )
 }
 
-fn read(path: &Path) -> Result<(Mesh, f64)> {
+/// Reads `path` with its textures (none when `plain`), timed.
+fn read(path: &Path, plain: bool) -> Result<(Mesh, Vec<Option<Texture>>, f64)> {
     let t = Instant::now();
-    let m = read_mesh(path).with_context(|| format!("{}: cannot read", path.display()))?;
+    let (m, tex) = crate::textures::read(path, plain)?;
     crate::warn_precision(path, &m);
-    Ok((m, t.elapsed().as_secs_f64()))
+    Ok((m, tex, t.elapsed().as_secs_f64()))
+}
+
+/// The textures to draw `mesh` with: `forced` on every group, or its own.
+fn pick(forced: Option<&Texture>, mesh: &Mesh, own: Vec<Option<Texture>>) -> Vec<Option<Texture>> {
+    match forced {
+        None => own,
+        Some(t) => {
+            let groups = mesh
+                .groups
+                .as_ref()
+                .and_then(|g| g.iter().max())
+                .map_or(1, |&g| g as usize + 1);
+            vec![Some(t.clone()); groups]
+        }
+    }
 }
 
 fn panel_report(
@@ -184,10 +207,12 @@ pub fn run(args: &RenderArgs) -> Result<()> {
 /// Without a heat map: each input is read, drawn and dropped in turn, so one mesh
 /// is in memory at a time.
 fn draw_streaming(args: &RenderArgs, opts: &RenderOptions) -> Result<Vec<PanelReport>> {
+    let forced = forced_texture(args)?;
     let mut canvas: Option<Canvas> = None;
     let mut panels = Vec::new();
     for (i, path) in args.inputs.iter().enumerate() {
-        let (mesh, read_s) = read(path)?;
+        let (mesh, own, read_s) = read(path, args.no_textures || forced.is_some())?;
+        let tex = pick(forced.as_ref(), &mesh, own);
         let phases = Phases::after_read();
         let c = match canvas.as_mut() {
             Some(c) => c,
@@ -200,7 +225,7 @@ fn draw_streaming(args: &RenderArgs, opts: &RenderOptions) -> Result<Vec<PanelRe
         };
         let t = Instant::now();
         let s = c
-            .draw(i, &mesh, None, &label(path))
+            .draw_with(i, &mesh, None, &tex, &label(path))
             .with_context(|| format!("{}: cannot draw", path.display()))?;
         panels.push(panel_report(path, &mesh, s, read_s, t, Some(phases)));
     }
@@ -211,6 +236,17 @@ fn draw_streaming(args: &RenderArgs, opts: &RenderOptions) -> Result<Vec<PanelRe
     Ok(panels)
 }
 
+/// The `--texture` image, decoded.
+fn forced_texture(args: &RenderArgs) -> Result<Option<Texture>> {
+    let Some(p) = &args.texture else {
+        return Ok(None);
+    };
+    let bytes = std::fs::read(p).with_context(|| format!("{}: cannot read", p.display()))?;
+    Ok(Some(Texture::from_png(&bytes).with_context(|| {
+        format!("{}: not a usable PNG", p.display())
+    })?))
+}
+
 /// With a heat map: every input's distances are measured first (the scale is
 /// their largest), then the panels drawn.
 fn draw_heatmap(
@@ -218,7 +254,7 @@ fn draw_heatmap(
     opts: &RenderOptions,
     reference: &Path,
 ) -> Result<(Vec<PanelReport>, Option<HeatReport>)> {
-    let (r, _) = read(reference)?;
+    let (r, _, _) = read(reference, true)?;
     if r.triangles.is_empty() {
         bail!("{}: the reference has no triangles", reference.display());
     }
@@ -227,7 +263,7 @@ fn draw_heatmap(
     drop(r);
     let mut meshes = Vec::new();
     for path in &args.inputs {
-        let (m, read_s) = read(path)?;
+        let (m, _, read_s) = read(path, true)?;
         let t = Instant::now();
         let v = render::heat_values(&m, &bvh);
         meshes.push((m, v, read_s, t.elapsed().as_secs_f64()));

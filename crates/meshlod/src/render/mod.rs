@@ -21,6 +21,8 @@
 //!   [`heat_values`]) interpolated per pixel and coloured with viridis
 //!   ([`colormap`]), with a legend bar in mesh units and percent of the reference's
 //!   bounding-box diagonal.
+//! - **Textures**: a base-colour [`Texture`] per material group, sampled bilinearly
+//!   at the interpolated UVs, lit like the untextured surface.
 //! - **Text**: captions and legend labels in an embedded 5×7 bitmap font ([`font`]).
 //!
 //! ```
@@ -40,9 +42,11 @@ pub mod font;
 mod raster;
 #[cfg(test)]
 mod tests;
+mod texture;
 
 pub use camera::{Camera, View};
 pub use raster::{AMBIENT, BACK, FRONT, HEAT_AMBIENT, WIRE};
+pub use texture::Texture;
 
 use crate::mesh::{Mesh, MeshError};
 use crate::metrics::bvh::Bvh;
@@ -130,6 +134,9 @@ pub enum RenderError {
     /// The mesh is malformed (an index out of range, a non-finite position).
     #[error(transparent)]
     Mesh(#[from] MeshError),
+    /// A texture could not be decoded.
+    #[error("texture: {0}")]
+    Texture(String),
     /// PNG encoding or writing failed.
     #[error("PNG: {0}")]
     Png(#[from] png::EncodingError),
@@ -356,6 +363,24 @@ impl Canvas {
         values: Option<&[f32]>,
         label: &str,
     ) -> Result<PanelStats, RenderError> {
+        self.draw_with(panel, mesh, values, &[], label)
+    }
+
+    /// As [`Canvas::draw`], with base-colour textures: `textures[g]` colours the
+    /// front faces of group (material) `g` when the mesh has UVs
+    /// ([`crate::mesh::VertexAttributes::uv0`]); groups without one, or every group
+    /// when the mesh has no UVs, stay plain. A heat map takes precedence.
+    ///
+    /// # Errors
+    /// As [`Canvas::draw`].
+    pub fn draw_with(
+        &mut self,
+        panel: usize,
+        mesh: &Mesh,
+        values: Option<&[f32]>,
+        textures: &[Option<Texture>],
+        label: &str,
+    ) -> Result<PanelStats, RenderError> {
         if panel >= self.layout.panels {
             return Err(RenderError::Panels {
                 panels: panel + 1,
@@ -401,6 +426,14 @@ impl Canvas {
             positions: &mesh.positions,
             normals,
             heat,
+            textures: match (&mesh.attributes.uv0, textures.iter().any(Option::is_some)) {
+                (Some(uv), true) => Some(raster::Textured {
+                    by_group: textures,
+                    uv,
+                    groups: mesh.groups.as_deref(),
+                }),
+                _ => None,
+            },
             forward: fwd,
         };
         let covered = self.compose(panel, &buf, &shade);

@@ -7,6 +7,7 @@
 //! allocated per triangle.
 
 use super::colormap::viridis;
+use super::texture::Texture;
 use rayon::prelude::*;
 
 /// Id of a pixel no triangle covers.
@@ -248,8 +249,21 @@ pub struct Shade<'a> {
     pub normals: Option<&'a [[f32; 3]]>,
     /// Heat-map values per vertex and the value that maps to the top of the scale.
     pub heat: Option<(&'a [f32], f32)>,
+    /// Base-colour textures by group (material) id, with the UVs and the groups.
+    pub textures: Option<Textured<'a>>,
     /// Viewing direction (unit).
     pub forward: [f32; 3],
+}
+
+/// What texturing needs: the textures by group id, the mesh's UVs and groups.
+#[derive(Clone, Copy)]
+pub struct Textured<'a> {
+    /// Texture of each group (`None`: untextured).
+    pub by_group: &'a [Option<Texture>],
+    /// Texture coordinates per vertex.
+    pub uv: &'a [[f32; 2]],
+    /// Group of each triangle (`None`: all group 0).
+    pub groups: Option<&'a [u32]>,
 }
 
 /// Colour of the front faces without a heat map (light grey-blue), linear in `[0, 1]`.
@@ -317,9 +331,25 @@ impl Shade<'_> {
                 let s = if max > 0.0 { v / max } else { 0.0 };
                 (viridis(s), HEAT_AMBIENT)
             }
-            None => (if area < 0.0 { FRONT } else { BACK }, AMBIENT),
+            None if area >= 0.0 => (BACK, AMBIENT),
+            None => (self.base_colour(t, l), AMBIENT),
         };
         let k = ambient + (1.0 - ambient) * lambert.min(1.0);
         base.map(|x| (x * k * 255.0).round().clamp(0.0, 255.0) as u8)
+    }
+
+    /// A front face's colour at barycentric weights `l`: its texture's, or [`FRONT`].
+    fn base_colour(&self, t: u32, l: [f32; 3]) -> [f32; 3] {
+        let Some(tx) = self.textures else {
+            return FRONT;
+        };
+        let g = tx.groups.map_or(0, |g| g[t as usize]) as usize;
+        let Some(Some(tex)) = tx.by_group.get(g) else {
+            return FRONT;
+        };
+        let [a, b, c] = self.triangles[t as usize].map(|i| tx.uv[i as usize]);
+        tex.sample(std::array::from_fn(|k| {
+            l[0] * a[k] + l[1] * b[k] + l[2] * c[k]
+        }))
     }
 }

@@ -423,3 +423,75 @@ proptest! {
         }
     }
 }
+
+/// A PNG of `w × h` RGB texels.
+fn png_bytes(w: u32, h: u32, texels: &[[u8; 3]]) -> Vec<u8> {
+    let img = Image {
+        width: w,
+        height: h,
+        pixels: texels.to_vec(),
+    };
+    let mut bytes = Vec::new();
+    img.encode_png(&mut bytes).unwrap();
+    bytes
+}
+
+/// A unit square with UVs equal to its x, y, textured with a 2×2 image whose top row
+/// (v near 1) is red, green and bottom row blue, white: each quarter of the square
+/// shows one texel.
+#[test]
+fn textures_colour_front_faces_by_uv() {
+    let mut m = Mesh::from_triangles(
+        vec![
+            [0.0, 0.0, 0.0],
+            [1.0, 0.0, 0.0],
+            [1.0, 1.0, 0.0],
+            [0.0, 1.0, 0.0],
+        ],
+        vec![[0, 1, 2], [0, 2, 3]],
+    );
+    m.attributes.uv0 = Some(vec![[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]]);
+    let (r, g, b, w) = ([255, 0, 0], [0, 255, 0], [0, 0, 255], [255, 255, 255]);
+    let tex = Texture::from_png(&png_bytes(2, 2, &[r, g, b, w])).unwrap();
+    assert_eq!((tex.width, tex.height), (2, 2));
+    let o = opts(80, 60);
+    let mut c = Canvas::new(&o, 1, frame_of(Some(&m)), None).unwrap();
+    c.draw_with(0, &m, None, &[Some(tex.clone())], "t").unwrap();
+    let img = c.clone().finish();
+    for (p, want) in [
+        ([0.25, 0.75, 0.0], r),
+        ([0.75, 0.75, 0.0], g),
+        ([0.25, 0.25, 0.0], b),
+        ([0.75, 0.25, 0.0], w),
+    ] {
+        let (x, y) = pixel_of(&c, 0, p);
+        let got = img.get(x, y);
+        for k in 0..3 {
+            assert!(got[k].abs_diff(want[k]) <= 40, "{p:?}: {got:?} vs {want:?}");
+        }
+    }
+    // Without UVs the texture is ignored.
+    m.attributes.uv0 = None;
+    let mut c = Canvas::new(&o, 1, frame_of(Some(&m)), None).unwrap();
+    c.draw_with(0, &m, None, &[Some(tex)], "t").unwrap();
+    let (x, y) = pixel_of(&c, 0, [0.25, 0.75, 0.0]);
+    assert_eq!(c.finish().get(x, y), lit(FRONT));
+    assert!(matches!(
+        Texture::from_png(b"not a png"),
+        Err(RenderError::Texture(_))
+    ));
+}
+
+#[test]
+fn texture_sampling_wraps_and_interpolates() {
+    let tex = Texture {
+        width: 2,
+        height: 1,
+        texels: vec![[0, 0, 0], [200, 200, 200]],
+    };
+    // Texel centres at u = 0.25 and 0.75; halfway between them, the mean.
+    assert_eq!(tex.sample([0.25, 0.5]), [0.0; 3]);
+    assert!((tex.sample([0.5, 0.5])[0] - 100.0 / 255.0).abs() < 1e-5);
+    assert_eq!(tex.sample([1.25, 7.5]), tex.sample([0.25, 0.5]));
+    assert!(tex.sample([f32::NAN, 0.0]).iter().all(|c| c.is_finite()));
+}

@@ -23,8 +23,10 @@ mod lod;
 mod measure;
 mod memory;
 mod pm;
+mod render;
 mod simplify;
 mod terrain;
+mod textures;
 
 use clap::{CommandFactory, FromArgMatches, Parser, Subcommand};
 use std::process::ExitCode;
@@ -65,6 +67,9 @@ enum Command {
     /// Height field (PNG, SRTM .hgt, ESRI .asc, GeoTIFF) to a triangulated irregular
     /// network within a vertical error bound, as one mesh or crack-free tiles.
     Terrain(Box<terrain::TerrainArgs>),
+    /// Draw meshes to a PNG picture: side by side, shaded, with an optional
+    /// wireframe and a heat map of the distance to a reference.
+    Render(Box<render::RenderArgs>),
 }
 
 /// The error and its causes on one line, `: `-separated, each once: a cause whose
@@ -148,6 +153,7 @@ fn main() -> ExitCode {
         Command::Dag(cmd) => dag::run(&cmd),
         Command::Pm(cmd) => pm::run(&cmd),
         Command::Terrain(args) => terrain::run(&args),
+        Command::Render(args) => render::run(&args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

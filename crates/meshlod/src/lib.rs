@@ -20,6 +20,7 @@
 //! - [`lod`]: progressive meshes (vertex splits, `.pmesh` files, navigation, geomorphs);
 //! - [`terrain`]: height fields (PNG, SRTM `.hgt`, ESRI `.asc`, GeoTIFF) to triangulated
 //!   irregular networks within a vertical bound (Garland & Heckbert 1995), and tiles.
+//! - [`render`]: pictures on the CPU (z-buffer rasterizer, heat maps, PNG).
 
 pub mod collapse;
 pub mod cost;
@@ -32,6 +33,7 @@ pub mod mesh;
 pub mod metrics;
 pub mod quadric;
 mod radix;
+pub mod render;
 pub mod simplify;
 pub mod terrain;
 

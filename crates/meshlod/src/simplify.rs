@@ -255,6 +255,14 @@ pub struct SimplifyOptions {
     /// (slower; the reference the chunked runs are measured against). Default
     /// `true`.
     pub chunks: bool,
+    /// [`Method::Qem`]: permissive seams. By default an attribute-seam or
+    /// material-border point only slides along its seam (and seam junctions along
+    /// one of their seams); permissive, such a point may also collapse across the
+    /// seam, moving the seam line, and pays for it in the cost (seam constraint
+    /// planes and attribute terms). Reaches lower counts on meshes cut by many
+    /// seams at the price of texture distortion near them. Open borders are kept
+    /// either way. Default `false`.
+    pub permissive: bool,
 }
 
 impl Default for SimplifyOptions {
@@ -289,11 +297,20 @@ impl Default for SimplifyOptions {
             reshade_flat: true,
             threads: None,
             chunks: true,
+            permissive: false,
         }
     }
 }
 
 impl SimplifyOptions {
+    /// Whether seam junctions may slide along their seams
+    /// ([`crate::collapse::BuildOptions::move_junctions`]): QEM with a placement
+    /// that moves points (the half-edge runs a progressive mesh records keep the
+    /// junctions fixed).
+    pub(crate) fn moves_junctions(&self) -> bool {
+        self.method == Method::Qem && self.placement != Placement::Endpoint
+    }
+
     /// Sets [`Self::fit_iterations`].
     #[must_use]
     pub fn with_fit_iterations(mut self, iterations: u32) -> Self {
@@ -901,6 +918,8 @@ fn decimate_mesh(
             // removal keeps the input's numbering (its measured outputs).
             spatial_order: matches!(options.method, Method::Qem | Method::Melax),
             track_merges,
+            move_junctions: options.moves_junctions(),
+            permissive: options.permissive && options.method == Method::Qem,
         },
     );
     let diag = surface.diagonal();

@@ -611,7 +611,7 @@ fn no_legal_collapse_detail(surface: &Surface, r: &Rejections) -> String {
     for p in 0..surface.point_count() as u32 {
         if surface.is_alive(p) {
             live += 1;
-            if !crate::collapse::is_movable(surface.kind(p)) {
+            if !surface.may_move(p) {
                 fixed += 1;
             }
         }

@@ -68,6 +68,7 @@ pub use crate::decimate::StopReason;
 /// A length in mesh units or relative to the diagonal; defined in [`crate::mesh`]
 /// (the clustering uses it too), re-exported here where the options use it.
 pub use crate::mesh::Distance;
+pub use crate::cost::AttributeWeights;
 pub use levels::{simplify_levels, supports_levels, LevelOutput, LevelStop};
 
 /// The simplification method.
@@ -263,6 +264,12 @@ pub struct SimplifyOptions {
     /// seams at the price of texture distortion near them. Open borders are kept
     /// either way. Default `false`.
     pub permissive: bool,
+    /// [`Method::Qem`]: weights of the normals, texture coordinates and colours in
+    /// the cost (Hoppe 1999's attribute quadric; `0` leaves a stream out). The
+    /// merged vertices' attributes are then the values that minimise that cost.
+    /// Each must be finite and non-negative. Default
+    /// [`AttributeWeights::default`] (normal 0.005, uv 0.1, colour 0.1).
+    pub attribute_weights: AttributeWeights,
 }
 
 impl Default for SimplifyOptions {
@@ -298,6 +305,7 @@ impl Default for SimplifyOptions {
             threads: None,
             chunks: true,
             permissive: false,
+            attribute_weights: AttributeWeights::default(),
         }
     }
 }
@@ -516,6 +524,15 @@ impl SimplifyOptions {
     fn check(&self, vertices: usize) -> Result<(), SimplifyError> {
         let bad =
             |name: &'static str, message: String| Err(SimplifyError::Option { name, message });
+        let aw = self.attribute_weights;
+        for (what, w) in [("normal", aw.normal), ("uv", aw.uv), ("color", aw.color)] {
+            if !(w >= 0.0 && w.is_finite()) {
+                return bad(
+                    "attribute_weights",
+                    format!("the {what} weight {w} is not finite and non-negative"),
+                );
+            }
+        }
         if let Some(r) = self.ratio {
             if !(0.0..=1.0).contains(&r) {
                 return bad("ratio", format!("{r} is not in [0, 1]"));
@@ -1004,6 +1021,7 @@ impl Models {
             placement: options.placement,
             condition: options.solve_condition,
             displacement_guard: options.displacement_guard,
+            attribute_weights: options.attribute_weights,
             ..QemOptions::default()
         };
         Self {

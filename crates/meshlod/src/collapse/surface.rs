@@ -202,6 +202,8 @@ pub struct Surface {
     junction: Vec<bool>,
     move_junctions: bool,
     permissive: bool,
+    /// `(u's wedge, v's wedge)` on the triangles the last collapse removed.
+    last_wedge_map: [(u32, u32); 2],
 }
 
 #[inline(always)]
@@ -298,6 +300,7 @@ impl Surface {
             junction: vec![false; np],
             move_junctions: options.move_junctions,
             permissive: options.permissive,
+            last_wedge_map: [(DEAD, DEAD); 2],
             fold_cos: 0.0,
         };
         s.build_fans();
@@ -1377,6 +1380,7 @@ impl Surface {
         let lu = self.fan_slot[u as usize].len as usize;
         let dying = self.kill_shared_triangles(u, v, su, lu);
         let non_edge = dying.count == 0;
+        self.last_wedge_map = dying.wedge_map;
         self.redirect_corners(u, v, su, lu, non_edge, &dying.wedge_map);
         let new_len = self.merge_fans(u, v, su, lu, dying.count);
         if let Some(m) = self.merged.get_mut(u as usize) {
@@ -1839,6 +1843,66 @@ impl Surface {
                 })
                 .collect(),
         )
+    }
+
+    /// The wedge streams' length (input vertices; 0 without attributes).
+    pub(crate) fn wedge_count(&self) -> usize {
+        let a = &self.attrs;
+        [
+            a.normals.as_ref().map(Vec::len),
+            a.tangents.as_ref().map(Vec::len),
+            a.uv0.as_ref().map(Vec::len),
+            a.uv1.as_ref().map(Vec::len),
+            a.colors.as_ref().map(Vec::len),
+            a.joints.as_ref().map(Vec::len),
+            a.weights.as_ref().map(Vec::len),
+        ]
+        .into_iter()
+        .flatten()
+        .max()
+        .unwrap_or(0)
+    }
+
+    /// The working attribute streams, for a cost model that solves them.
+    pub(crate) fn attributes_mut(&mut self) -> &mut VertexAttributes {
+        &mut self.attrs
+    }
+
+    /// The distinct wedges of `p`'s live triangles into `out` (at most its
+    /// length); returns how many.
+    pub(crate) fn point_wedges(&self, p: u32, out: &mut [u32]) -> usize {
+        let mut n = 0;
+        for &t in self.fan(p) {
+            let w = self.wedge(t, self.corner_of(t, p));
+            if !out[..n].contains(&w) && n < out.len() {
+                out[n] = w;
+                n += 1;
+            }
+        }
+        n
+    }
+
+    /// `(a's wedge, b's wedge)` in (up to) the first two triangles on edge `(a, b)`
+    /// ([`DEAD`] where fewer): the wedges a collapse of the edge merges.
+    pub(crate) fn edge_wedges(&self, a: u32, b: u32) -> [(u32, u32); 2] {
+        let mut out = [(DEAD, DEAD); 2];
+        let mut n = 0;
+        for &t in self.fan(a) {
+            if n < 2 && self.tri[t as usize].contains(&b) {
+                out[n] = (
+                    self.wedge(t, self.corner_of(t, a)),
+                    self.wedge(t, self.corner_of(t, b)),
+                );
+                n += 1;
+            }
+        }
+        out
+    }
+
+    /// `(u's wedge, v's wedge)` on the (up to two) triangles the last collapse
+    /// removed ([`DEAD`] where fewer).
+    pub(crate) fn last_wedge_map(&self) -> [(u32, u32); 2] {
+        self.last_wedge_map
     }
 
     /// Takes the working attribute streams out (for building the output).

@@ -458,6 +458,7 @@ impl<C: CostModel + ?Sized> Driver<'_, C> {
         record.cost = exact;
         record.error = c.error;
         self.cost.collapsed(self.surface, &record);
+        self.cost.write_attributes(self.surface, &record);
         out.collapses += 1;
         if record.non_edge {
             out.non_edge_contractions += 1;

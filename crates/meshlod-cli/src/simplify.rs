@@ -605,7 +605,9 @@ fn parse_attribute_weights(s: &str) -> Result<meshlod::simplify::AttributeWeight
             "normal" | "normals" => w.normal = v,
             "uv" | "texcoord" => w.uv = v,
             "color" | "colour" | "colors" => w.color = v,
-            other => bail!("--attribute-weight: unknown attribute `{other}` (names: normal, uv, color)"),
+            other => {
+                bail!("--attribute-weight: unknown attribute `{other}` (names: normal, uv, color)")
+            }
         }
     }
     Ok(w)

@@ -64,11 +64,11 @@ use serde::Serialize;
 use std::time::Instant;
 use thiserror::Error;
 
+pub use crate::cost::AttributeWeights;
 pub use crate::decimate::StopReason;
 /// A length in mesh units or relative to the diagonal; defined in [`crate::mesh`]
 /// (the clustering uses it too), re-exported here where the options use it.
 pub use crate::mesh::Distance;
-pub use crate::cost::AttributeWeights;
 pub use levels::{simplify_levels, supports_levels, LevelOutput, LevelStop};
 
 /// The simplification method.

@@ -258,7 +258,8 @@ impl WedgeQuadrics {
         }
         for j in 0..self.dims {
             let o = 1 + 4 * j;
-            let mut s = Quadric::from_plane([src[o], src[o + 1], src[o + 2]], src[o + 3], sign / ww);
+            let mut s =
+                Quadric::from_plane([src[o], src[o + 1], src[o + 2]], src[o + 3], sign / ww);
             s.weight = 0.0;
             q.add(&s);
         }

@@ -3,18 +3,19 @@
 //! attributes"; the attribute-augmented quadric of Garland & Heckbert 1998,
 //! "Simplifying surfaces with color and texture using quadric error metrics").
 //!
-//! Over a triangle every attribute component `s` is linear in position: `s(x) = g·x
-//! + d` with `g` in the triangle's plane. The triangle adds, weighted by its plane
-//! quadric's weight `w` (its area), `w·(g·x + d − s)²` to the error of a vertex at
-//! `x` carrying value `s`. Summed over the triangles around a wedge (one side of a
-//! seam), that is `Σ w(g·x+d)² − 2s(G·x+D) + W s²` with `W = Σ w`, `G = Σ w g`, `D =
-//! Σ w d`; its minimum over `s` is at `s* = (G·x + D)/W`, where the error is `Σ
-//! w(g·x+d)² − (G·x+D)²/W`. The first part is an ordinary 4×4 quadric in `x`
-//! (added to the point's quadric); the second, the wedge's *Schur term*, needs `W`
-//! and per component `G` and `D`: `1 + 4m` numbers a wedge for `m` components,
-//! instead of the `(3+m+1)(3+m+2)/2` of the full matrix. The point's quadric minus
-//! the Schur terms of its wedges is again a 4×4 quadric in `x` (stored per point),
-//! so the optimal position comes out of the same 3×3 solve as without attributes,
+//! Over a triangle every attribute component `s` is linear in position,
+//! `s(x) = g·x + d`, with `g` in the triangle's plane. The triangle adds, weighted
+//! by its plane quadric's weight `w` (its area), `w·(g·x + d − s)²` to the error of
+//! a vertex at `x` carrying value `s`. Summed over the triangles around a wedge (one
+//! side of a seam), with `W = Σ w`, `G = Σ w·g` and `D = Σ w·d`, that is
+//! `Σ w·(g·x + d)² − 2s·(G·x + D) + W·s²`; its minimum over `s` is at
+//! `s* = (G·x + D)/W`, where the error is `Σ w·(g·x + d)² − (G·x + D)²/W`. The first
+//! part is an ordinary 4×4 quadric in `x` (added to the point's quadric); the
+//! second, the wedge's *Schur term*, needs `W` and per component `G` and `D`:
+//! `1 + 4m` numbers a wedge for `m` components, instead of the
+//! `(3 + m + 1)(3 + m + 2)/2` of the full matrix. The point's quadric minus the
+//! Schur terms of its wedges is again a 4×4 quadric in `x` (stored per point), so
+//! the optimal position comes out of the same 3×3 solve as without attributes,
 //! and every wedge's optimal values `s*` out of that position.
 //!
 //! Attribute values enter scaled: component `s` of a stream with weight `λ` is used
@@ -220,14 +221,13 @@ impl WedgeQuadrics {
         let a2 = cross(n, e1);
         let wedges = [0, 1, 2].map(|k| surface.wedge(t, k));
         let mut vals = [[0.0f64; MAX_DIMS]; 3];
-        for k in 0..3 {
-            self.streams
-                .read(surface.attributes(), wedges[k], &mut vals[k]);
+        for (w, v) in wedges.iter().zip(vals.iter_mut()) {
+            self.streams.read(surface.attributes(), *w, v);
         }
         let tt = surface.triangle(t);
         let mut extra = Quadric::ZERO;
-        for j in 0..self.dims {
-            let (s0, s1, s2) = (vals[0][j], vals[1][j], vals[2][j]);
+        let components = vals[0].iter().zip(&vals[1]).zip(&vals[2]);
+        for (j, ((&s0, &s1), &s2)) in components.take(self.dims).enumerate() {
             let g = [0, 1, 2].map(|i| ((s1 - s0) * a1[i] + (s2 - s0) * a2[i]) / nn);
             let d = s0 - dot(g, p[0]);
             let mut q = Quadric::from_plane(g, d, w);

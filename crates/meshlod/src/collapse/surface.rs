@@ -252,6 +252,8 @@ impl Surface {
             ends,
         } = sort_by_smallest_point(kept, np);
         let n = tri.len();
+        // Junctions exist only where seams do (wedges or groups).
+        let move_junctions = options.move_junctions && (tri_wedge.is_some() || tri_group.is_some());
         repair.duplicate_triangles = remove_duplicates(&mut tri, &ends[..np]);
 
         let (diag, center) = diagonal_and_center(bounds);
@@ -297,8 +299,12 @@ impl Surface {
             scratch_plans: Vec::new(),
             kind_changed: [DEAD; 2],
             fold_angle: f64::NAN,
-            junction: vec![false; np],
-            move_junctions: options.move_junctions,
+            junction: if move_junctions {
+                vec![false; np]
+            } else {
+                Vec::new()
+            },
+            move_junctions,
             permissive: options.permissive,
             last_wedge_map: [(DEAD, DEAD); 2],
             fold_cos: 0.0,
@@ -513,7 +519,8 @@ impl Surface {
     /// point, or a seam junction ([`BuildOptions::move_junctions`]).
     #[must_use]
     pub fn may_move(&self, p: u32) -> bool {
-        super::is_movable(self.kind[p as usize]) || self.junction[p as usize]
+        super::is_movable(self.kind[p as usize])
+            || self.junction.get(p as usize).copied().unwrap_or(false)
     }
 
     /// Whether point `p` lies on a boundary edge.
@@ -652,7 +659,9 @@ impl Surface {
             return;
         }
         let fl = self.fan_slot[pi].len as usize;
-        self.junction[pi] = false;
+        if self.move_junctions {
+            self.junction[pi] = false;
+        }
         if fl == 0 {
             self.kind[pi] = VertexKind::Complex;
             self.boundary[pi] = false;
@@ -765,7 +774,9 @@ impl Surface {
                 (0, 2) => VertexKind::Seam,
                 _ => {
                     // One disc, complex through its seam edges only: a junction.
-                    self.junction[pi] = self.move_junctions && ns > 0 && (nb == 0 || nb == 2);
+                    if self.move_junctions {
+                        self.junction[pi] = ns > 0 && (nb == 0 || nb == 2);
+                    }
                     VertexKind::Complex
                 }
             }
@@ -1055,7 +1066,7 @@ impl Surface {
                         )
             }
             // A seam junction slides along a seam (or its border) only.
-            VertexKind::Complex if self.junction[x as usize] => {
+            VertexKind::Complex if self.junction.get(x as usize) == Some(&true) => {
                 if self.boundary[x as usize] {
                     border_edge
                 } else {
@@ -1275,9 +1286,26 @@ impl Surface {
             if dying == 2 && map[0].0 == map[1].0 && map[0].1 != map[1].1 {
                 return Err(Reject::Seam);
             }
+            // Skins: the dominant joint is a discontinuity that is kept (unless
+            // permissive): merged wedges must share it.
+            if let (false, Some(j), Some(wt)) =
+                (self.permissive, &self.attrs.joints, &self.attrs.weights)
+            {
+                let dominant = |w: u32| {
+                    let (jj, ww) = (j[w as usize], wt[w as usize]);
+                    let k = (1..4).fold(0, |b, k| if ww[k] > ww[b] { k } else { b });
+                    jj[k]
+                };
+                if map[..dying]
+                    .iter()
+                    .any(|&(wu, wv)| dominant(wu) != dominant(wv))
+                {
+                    return Err(Reject::Seam);
+                }
+            }
             // A junction, or a seam point crossing its seam, takes its other wedges
             // along (see `redirect_corners`).
-            let takes_wedges = self.permissive || self.junction[u as usize];
+            let takes_wedges = self.permissive || self.junction.get(u as usize) == Some(&true);
             for &t in self.fan(u) {
                 if takes_wedges {
                     break;
@@ -1371,7 +1399,9 @@ impl Surface {
         if v_moves && !self.attrs.is_empty() {
             self.interpolate_attributes(u, v, p);
         }
-        if (self.permissive || self.junction[u as usize]) && !self.attrs.is_empty() {
+        if (self.permissive || self.junction.get(u as usize) == Some(&true))
+            && !self.attrs.is_empty()
+        {
             self.carry_unmapped_wedges(u, v, p);
         }
         // `u`'s fan is `fans[su..su + lu]` until `merge_fans` releases it (the steps

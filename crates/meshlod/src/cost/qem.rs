@@ -91,7 +91,8 @@ pub struct QemOptions {
     /// the `attributes` module). With any stream present and weighted, every
     /// wedge keeps its attribute sums, collapses pay for the attribute error of the
     /// wedges they merge, and the survivor's wedges get the attribute values that
-    /// minimise it at its position. Default [`AttributeWeights::default`].
+    /// minimise it at its position (with [`Placement::Endpoint`], where no vertex
+    /// moves, they keep their values). Default [`AttributeWeights::default`].
     pub attribute_weights: AttributeWeights,
 }
 
@@ -147,6 +148,16 @@ impl Qem {
     /// wedges an edge collapse merges.
     #[inline(always)]
     fn pair_quadric(&self, surface: &Surface, a: u32, b: u32) -> Quadric {
+        if self.wedges.is_some() {
+            return self.pair_quadric_with_attributes(surface, a, b);
+        }
+        self.quadrics[a as usize].sum(&self.quadrics[b as usize])
+    }
+
+    /// [`Self::pair_quadric`] with attribute terms (out of line, so that the
+    /// attribute-free path stays as lean as without them).
+    #[inline(never)]
+    fn pair_quadric_with_attributes(&self, surface: &Surface, a: u32, b: u32) -> Quadric {
         let mut q = self.quadrics[a as usize].sum(&self.quadrics[b as usize]);
         if let Some(w) = &self.wedges {
             q.add(&w.correction(&surface.edge_wedges(a, b)));
@@ -444,6 +455,11 @@ impl CostModel for Qem {
     }
 
     fn write_attributes(&self, surface: &mut Surface, record: &CollapseRecord) {
+        // Endpoint placement keeps every vertex as it was, attributes included
+        // (what a progressive mesh's vertex splits restore).
+        if self.options.placement == Placement::Endpoint {
+            return;
+        }
         if let Some(w) = &self.wedges {
             w.write_point(surface, record.kept);
         }

@@ -639,6 +639,14 @@ fn warn_ignored(args: &SimplifyArgs, fitting: bool) {
     if args.placement.is_some() && args.method != MethodArg::Qem {
         ignored.push("--placement");
     }
+    if args.method != MethodArg::Qem {
+        if args.attribute_weight.is_some() {
+            ignored.push("--attribute-weight");
+        }
+        if args.permissive {
+            ignored.push("--permissive");
+        }
+    }
     if !ignored.is_empty() {
         eprintln!(
             "meshlod: warning: {} not used by --method {method}{}; ignored",

@@ -759,3 +759,45 @@ fn hidden_tuning_knobs_still_parse() {
         assert!(j["triangles_out"].as_u64().unwrap() > 0, "{extra:?}");
     }
 }
+
+/// `--attribute-weight` and `--permissive` on the Duck (a UV-mapped glTF with
+/// seam junctions): it reaches 10% either way; a malformed weight list is a clean
+/// error naming the flag; with another method both flags are named as ignored.
+#[test]
+fn attribute_weights_and_permissive() {
+    let dir = tempfile::tempdir().unwrap();
+    let duck = common::data_dir().join("Duck/Duck.gltf");
+    let out = dir.path().join("duck.glb");
+    for extra in [
+        &["--attribute-weight", "normal=0.02,uv=0.5,color=0"][..],
+        &["--permissive"][..],
+    ] {
+        let mut args = vec!["--ratio", "0.1", "--json"];
+        args.extend_from_slice(extra);
+        let j = json(&simplify(&duck, &out, &args));
+        assert_eq!(j["stop_reason"], "target_reached", "{extra:?}: {j}");
+    }
+    for bad in ["normal", "normal=-1", "normal=x", "shine=1"] {
+        let o = simplify(&duck, &out, &["--attribute-weight", bad]);
+        assert!(!o.status.success(), "{bad} accepted");
+        let e = String::from_utf8_lossy(&o.stderr);
+        assert!(e.contains("--attribute-weight"), "{bad}: {e}");
+    }
+    let o = simplify(
+        &duck,
+        &out,
+        &[
+            "--method",
+            "melax",
+            "--permissive",
+            "--attribute-weight",
+            "uv=1",
+            "--json",
+        ],
+    );
+    let e = stderr_of_ok(&o);
+    assert!(
+        e.contains("--attribute-weight, --permissive not used"),
+        "{e}"
+    );
+}

@@ -131,7 +131,7 @@ pub struct SimplifyArgs {
     /// change.
     #[arg(long, value_name = "T", help_heading = heading::QEM)]
     pub pair_threshold: Option<f64>,
-    /// qem: weights of the attributes in the cost, e.g. `normal=0.005,uv=0.1,color=0.1`
+    /// qem: weights of the attributes in the cost, e.g. `normal=0.002,uv=0.1,color=0.1`
     /// (the defaults; names normal, uv, color; 0 leaves one out). An attribute error
     /// of 1/W costs as much as moving a point by the bounding-box diagonal; merged
     /// vertices get the attribute values that minimise it.

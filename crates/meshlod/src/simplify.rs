@@ -268,7 +268,7 @@ pub struct SimplifyOptions {
     /// the cost (Hoppe 1999's attribute quadric; `0` leaves a stream out). The
     /// merged vertices' attributes are then the values that minimise that cost.
     /// Each must be finite and non-negative. Default
-    /// [`AttributeWeights::default`] (normal 0.005, uv 0.1, colour 0.1).
+    /// [`AttributeWeights::default`] (normal 0.002, uv 0.1, colour 0.1).
     pub attribute_weights: AttributeWeights,
 }
 

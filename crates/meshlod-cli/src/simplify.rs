@@ -135,7 +135,7 @@ pub struct SimplifyArgs {
     /// (the defaults; names normal, uv, color; 0 leaves one out). An attribute error
     /// of 1/W costs as much as moving a point by the bounding-box diagonal; merged
     /// vertices get the attribute values that minimise it.
-    #[arg(long, value_name = "NAME=W,...", help_heading = heading::QEM)]
+    #[arg(long, value_name = "NAME=W,...", hide = true, help_heading = heading::TUNING_QEM)]
     pub attribute_weight: Option<String>,
     /// qem: let points on texture seams and material borders collapse across the
     /// seam (paying its attribute cost), not only along it: reaches lower counts on
@@ -150,7 +150,7 @@ pub struct SimplifyArgs {
     pub feature_angle: Option<f64>,
     /// vertex-removal: never remove corner vertices (one or more than two feature
     /// edges).
-    #[arg(long, help_heading = heading::VERTEX_REMOVAL)]
+    #[arg(long, hide = true, help_heading = heading::TUNING_VERTEX_REMOVAL)]
     pub keep_corners: bool,
 
     // Clustering.

@@ -519,7 +519,7 @@ fn seam_junction_slides_along_its_seam() {
     assert!(mv.a_to_b && !mv.b_to_a && mv.merge == Merge::No);
     // Not across a chart: edge 0–2 is inside chart A.
     let p2 = point_at(&s, ring[1]);
-    assert!(s.moves(c, p2, false).map_or(true, |m| !m.a_to_b));
+    assert!(s.moves(c, p2, false).is_none_or(|m| !m.a_to_b));
     s.check(c, p1, s.position(p1), &limits(), &mut pv)
         .expect("legal");
     s.collapse(c, p1, s.position(p1));

@@ -131,6 +131,17 @@ pub struct SimplifyArgs {
     /// change.
     #[arg(long, value_name = "T", help_heading = heading::QEM)]
     pub pair_threshold: Option<f64>,
+    /// qem: weights of the attributes in the cost, e.g. `normal=0.002,uv=0.1,color=0.1`
+    /// (the defaults; names normal, uv, color; 0 leaves one out). An attribute error
+    /// of 1/W costs as much as moving a point by the bounding-box diagonal; merged
+    /// vertices get the attribute values that minimise it.
+    #[arg(long, value_name = "NAME=W,...", hide = true, help_heading = heading::TUNING_QEM)]
+    pub attribute_weight: Option<String>,
+    /// qem: let points on texture seams and material borders collapse across the
+    /// seam (paying its attribute cost), not only along it: reaches lower counts on
+    /// meshes cut by many seams, with some texture distortion near them.
+    #[arg(long, help_heading = heading::QEM)]
+    pub permissive: bool,
 
     // Vertex removal.
     /// vertex-removal: dihedral angle in degrees above which an edge is a feature
@@ -139,7 +150,7 @@ pub struct SimplifyArgs {
     pub feature_angle: Option<f64>,
     /// vertex-removal: never remove corner vertices (one or more than two feature
     /// edges).
-    #[arg(long, help_heading = heading::VERTEX_REMOVAL)]
+    #[arg(long, hide = true, help_heading = heading::TUNING_VERTEX_REMOVAL)]
     pub keep_corners: bool,
 
     // Clustering.
@@ -501,6 +512,10 @@ fn options(args: &SimplifyArgs) -> Result<SimplifyOptions> {
     if let Some(g) = args.displacement_guard {
         o = o.with_displacement_guard(g);
     }
+    if let Some(s) = &args.attribute_weight {
+        o.attribute_weights = parse_attribute_weights(s)?;
+    }
+    o.permissive = args.permissive;
     if let Some(d) = args.max_normal_deviation {
         o = o.with_max_normal_deviation(d);
     }
@@ -572,6 +587,32 @@ fn options(args: &SimplifyArgs) -> Result<SimplifyOptions> {
 
 /// Warns on stderr about flags that the chosen method or placement does not use
 /// (the run goes on without them).
+/// Parses `--attribute-weight`: `name=W` items separated by commas (names
+/// `normal`, `uv`, `color`/`colour`); names not given keep their defaults.
+fn parse_attribute_weights(s: &str) -> Result<meshlod::simplify::AttributeWeights> {
+    let mut w = meshlod::simplify::AttributeWeights::default();
+    for item in s.split(',').map(str::trim).filter(|x| !x.is_empty()) {
+        let Some((name, value)) = item.split_once('=') else {
+            bail!("--attribute-weight: `{item}` is not NAME=W (names: normal, uv, color)");
+        };
+        let v: f64 = value.trim().parse().map_err(|_| {
+            anyhow::anyhow!("--attribute-weight: `{value}` (for {name}) is not a number")
+        })?;
+        if !(v >= 0.0 && v.is_finite()) {
+            bail!("--attribute-weight: {name}={v} must be finite and non-negative");
+        }
+        match name.trim() {
+            "normal" | "normals" => w.normal = v,
+            "uv" | "texcoord" => w.uv = v,
+            "color" | "colour" | "colors" => w.color = v,
+            other => {
+                bail!("--attribute-weight: unknown attribute `{other}` (names: normal, uv, color)")
+            }
+        }
+    }
+    Ok(w)
+}
+
 fn warn_ignored(args: &SimplifyArgs, fitting: bool) {
     let method = match args.method {
         MethodArg::Qem => "qem",
@@ -597,6 +638,14 @@ fn warn_ignored(args: &SimplifyArgs, fitting: bool) {
     }
     if args.placement.is_some() && args.method != MethodArg::Qem {
         ignored.push("--placement");
+    }
+    if args.method != MethodArg::Qem {
+        if args.attribute_weight.is_some() {
+            ignored.push("--attribute-weight");
+        }
+        if args.permissive {
+            ignored.push("--permissive");
+        }
     }
     if !ignored.is_empty() {
         eprintln!(

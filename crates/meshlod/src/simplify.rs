@@ -64,6 +64,7 @@ use serde::Serialize;
 use std::time::Instant;
 use thiserror::Error;
 
+pub use crate::cost::AttributeWeights;
 pub use crate::decimate::StopReason;
 /// A length in mesh units or relative to the diagonal; defined in [`crate::mesh`]
 /// (the clustering uses it too), re-exported here where the options use it.
@@ -255,6 +256,20 @@ pub struct SimplifyOptions {
     /// (slower; the reference the chunked runs are measured against). Default
     /// `true`.
     pub chunks: bool,
+    /// [`Method::Qem`]: permissive seams. By default an attribute-seam or
+    /// material-border point only slides along its seam (and seam junctions along
+    /// one of their seams); permissive, such a point may also collapse across the
+    /// seam, moving the seam line, and pays for it in the cost (seam constraint
+    /// planes and attribute terms). Reaches lower counts on meshes cut by many
+    /// seams at the price of texture distortion near them. Open borders are kept
+    /// either way. Default `false`.
+    pub permissive: bool,
+    /// [`Method::Qem`]: weights of the normals, texture coordinates and colours in
+    /// the cost (Hoppe 1999's attribute quadric; `0` leaves a stream out). The
+    /// merged vertices' attributes are then the values that minimise that cost.
+    /// Each must be finite and non-negative. Default
+    /// [`AttributeWeights::default`] (normal 0.002, uv 0.1, colour 0.1).
+    pub attribute_weights: AttributeWeights,
 }
 
 impl Default for SimplifyOptions {
@@ -289,11 +304,21 @@ impl Default for SimplifyOptions {
             reshade_flat: true,
             threads: None,
             chunks: true,
+            permissive: false,
+            attribute_weights: AttributeWeights::default(),
         }
     }
 }
 
 impl SimplifyOptions {
+    /// Whether seam junctions may slide along their seams
+    /// ([`crate::collapse::BuildOptions::move_junctions`]): QEM with a placement
+    /// that moves points (the half-edge runs a progressive mesh records keep the
+    /// junctions fixed).
+    pub(crate) fn moves_junctions(&self) -> bool {
+        self.method == Method::Qem && self.placement != Placement::Endpoint
+    }
+
     /// Sets [`Self::fit_iterations`].
     #[must_use]
     pub fn with_fit_iterations(mut self, iterations: u32) -> Self {
@@ -499,6 +524,15 @@ impl SimplifyOptions {
     fn check(&self, vertices: usize) -> Result<(), SimplifyError> {
         let bad =
             |name: &'static str, message: String| Err(SimplifyError::Option { name, message });
+        let aw = self.attribute_weights;
+        for (what, w) in [("normal", aw.normal), ("uv", aw.uv), ("color", aw.color)] {
+            if !(w >= 0.0 && w.is_finite()) {
+                return bad(
+                    "attribute_weights",
+                    format!("the {what} weight {w} is not finite and non-negative"),
+                );
+            }
+        }
         if let Some(r) = self.ratio {
             if !(0.0..=1.0).contains(&r) {
                 return bad("ratio", format!("{r} is not in [0, 1]"));
@@ -901,6 +935,8 @@ fn decimate_mesh(
             // removal keeps the input's numbering (its measured outputs).
             spatial_order: matches!(options.method, Method::Qem | Method::Melax),
             track_merges,
+            move_junctions: options.moves_junctions(),
+            permissive: options.permissive && options.method == Method::Qem,
         },
     );
     let diag = surface.diagonal();
@@ -985,6 +1021,7 @@ impl Models {
             placement: options.placement,
             condition: options.solve_condition,
             displacement_guard: options.displacement_guard,
+            attribute_weights: options.attribute_weights,
             ..QemOptions::default()
         };
         Self {

@@ -126,17 +126,19 @@ fn flat_shaded_meshes_simplify_like_smooth_ones() {
 }
 
 #[test]
-fn without_the_reshading_a_flat_mesh_cannot_move() {
+fn without_the_reshading_a_flat_mesh_moves_by_its_junctions() {
     // The bunny has no two coplanar neighbours, so every point is a seam junction
-    // (fandisk's planar patches would share normals and move).
+    // (fandisk's planar patches would share normals). Junctions slide along their
+    // seams, so even kept as seams the normals no longer freeze the run: it reaches
+    // the target (the re-shading stays the better path: fewer seams to keep).
     let (_, flat) = smooth_and_flat("stanford-bunny.obj");
     let options = SimplifyOptions::default()
         .with_ratio(0.1)
         .with_reshade_flat(false);
     let (out, report) = simplify(&flat, &options).expect("simplifies");
     assert!(!report.flat_shading);
-    assert_eq!(report.stop_reason, StopReason::NoLegalCollapse);
-    assert!(out.triangles.len() > flat.triangles.len() * 99 / 100);
+    assert_eq!(report.stop_reason, StopReason::TargetReached);
+    assert!(out.triangles.len() <= flat.triangles.len() / 10 + flat.triangles.len() / 1000 + 1);
 }
 
 #[test]

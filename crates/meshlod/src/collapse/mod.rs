@@ -9,7 +9,12 @@
 //!   only slides along its border (collapses along a border edge, onto a border,
 //!   complex or locked vertex); an attribute-seam or material-border vertex only
 //!   along its seam; complex (non-manifold input) and locked vertices never move and
-//!   are never removed, other vertices may only be merged *onto* them;
+//!   are never removed, other vertices may only be merged *onto* them — except, when
+//!   asked ([`BuildOptions::move_junctions`]), a seam junction (one fan, complex only
+//!   through its seam edges), which may be removed along one of its seam edges (its
+//!   border edges when on a border), its wedges off that edge carried to the
+//!   survivor; a permissive surface ([`BuildOptions::permissive`]) also lets seam
+//!   points and junctions cross their seam;
 //! - **link condition** (Dey et al.; Hoppe et al. 1993): the common neighbours of `u`
 //!   and `v` are exactly the apexes of the triangles on edge `uv`, and an interior
 //!   edge joining two boundary vertices is never collapsed — so a manifold
@@ -18,7 +23,8 @@
 //!   small component is collapsed away;
 //! - **no duplicate triangles** (the tetrahedron case the link condition misses);
 //! - **seams**: the wedges (attribute vertices) of `u` map onto wedges of `v`
-//!   consistently on each side of a seam;
+//!   consistently on each side of a seam (a junction's or a crossing point's other
+//!   wedges move to `v` whole);
 //! - **geometry**: no surviving triangle may flip or turn past a limit against its
 //!   pre-collapse normal (fold-over), and none may reach zero area.
 //!

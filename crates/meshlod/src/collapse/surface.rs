@@ -87,6 +87,22 @@ pub struct BuildOptions<'a> {
     /// that `Surface::vertex_roots` can say where every input vertex ended (4 bytes
     /// a point, plus the input vertex → point map kept). Default `false`.
     pub track_merges: bool,
+    /// Let seam junctions move: a point where three or more attribute-seam or
+    /// material-border edges meet, or where such edges meet an open border (kinds
+    /// that are otherwise frozen), may be removed by a half-edge collapse along one
+    /// of its seam edges (along a border edge when it is on a border) onto its
+    /// neighbour there. The wedges on the two sides of that edge merge into the
+    /// neighbour's; its other wedges move to the neighbour with their attributes
+    /// taken at its position, so every seam line through it keeps its end points
+    /// and the junction slides along the seam. Default `false`; QEM turns it on.
+    pub move_junctions: bool,
+    /// Permissive seams: a seam point (or, with [`Self::move_junctions`], a seam
+    /// junction) may also collapse across its seam, along any interior edge; the
+    /// wedges on that edge's side merge, the others move with the point (their
+    /// attributes taken at the new place), so the seam line moves. The cost model
+    /// pays for it through its seam planes and attribute terms. Open borders are
+    /// still kept. Default `false`.
+    pub permissive: bool,
 }
 
 /// What the up-front repair removed from the input.
@@ -180,6 +196,14 @@ pub struct Surface {
     kind_changed: [u32; 2],
     fold_angle: f64,
     fold_cos: f64,
+    /// Per point: a complex point whose fan is one disc (open or closed) and that is
+    /// complex only through its seam edges ([`BuildOptions::move_junctions`]); all
+    /// `false` without that option.
+    junction: Vec<bool>,
+    move_junctions: bool,
+    permissive: bool,
+    /// `(u's wedge, v's wedge)` on the triangles the last collapse removed.
+    last_wedge_map: [(u32, u32); 2],
 }
 
 #[inline(always)]
@@ -228,6 +252,8 @@ impl Surface {
             ends,
         } = sort_by_smallest_point(kept, np);
         let n = tri.len();
+        // Junctions exist only where seams do (wedges or groups).
+        let move_junctions = options.move_junctions && (tri_wedge.is_some() || tri_group.is_some());
         repair.duplicate_triangles = remove_duplicates(&mut tri, &ends[..np]);
 
         let (diag, center) = diagonal_and_center(bounds);
@@ -273,6 +299,14 @@ impl Surface {
             scratch_plans: Vec::new(),
             kind_changed: [DEAD; 2],
             fold_angle: f64::NAN,
+            junction: if move_junctions {
+                vec![false; np]
+            } else {
+                Vec::new()
+            },
+            move_junctions,
+            permissive: options.permissive,
+            last_wedge_map: [(DEAD, DEAD); 2],
             fold_cos: 0.0,
         };
         s.build_fans();
@@ -481,6 +515,14 @@ impl Surface {
         self.kind[p as usize]
     }
 
+    /// Whether `p` may be removed by some collapse: a manifold, border or seam
+    /// point, or a seam junction ([`BuildOptions::move_junctions`]).
+    #[must_use]
+    pub fn may_move(&self, p: u32) -> bool {
+        super::is_movable(self.kind[p as usize])
+            || self.junction.get(p as usize).copied().unwrap_or(false)
+    }
+
     /// Whether point `p` lies on a boundary edge.
     #[must_use]
     #[inline]
@@ -617,6 +659,9 @@ impl Surface {
             return;
         }
         let fl = self.fan_slot[pi].len as usize;
+        if self.move_junctions {
+            self.junction[pi] = false;
+        }
         if fl == 0 {
             self.kind[pi] = VertexKind::Complex;
             self.boundary[pi] = false;
@@ -727,7 +772,13 @@ impl Surface {
                 (0, 0) => VertexKind::Manifold,
                 (2, 0) => VertexKind::Border,
                 (0, 2) => VertexKind::Seam,
-                _ => VertexKind::Complex,
+                _ => {
+                    // One disc, complex through its seam edges only: a junction.
+                    if self.move_junctions {
+                        self.junction[pi] = ns > 0 && (nb == 0 || nb == 2);
+                    }
+                    VertexKind::Complex
+                }
             }
         };
         self.boundary[pi] = nb > 0;
@@ -996,7 +1047,8 @@ impl Surface {
             return None;
         }
         let border_edge = count == 1;
-        let can = |kx: VertexKind, ky: VertexKind| match kx {
+        let crosses = self.permissive && !border_edge;
+        let can = |x: u32, kx: VertexKind, ky: VertexKind| match kx {
             VertexKind::Manifold => true,
             VertexKind::Border => {
                 border_edge
@@ -1006,14 +1058,24 @@ impl Surface {
                     )
             }
             VertexKind::Seam => {
-                seam && matches!(
-                    ky,
-                    VertexKind::Seam | VertexKind::Complex | VertexKind::Locked
-                )
+                crosses
+                    || seam
+                        && matches!(
+                            ky,
+                            VertexKind::Seam | VertexKind::Complex | VertexKind::Locked
+                        )
+            }
+            // A seam junction slides along a seam (or its border) only.
+            VertexKind::Complex if self.junction.get(x as usize) == Some(&true) => {
+                if self.boundary[x as usize] {
+                    border_edge
+                } else {
+                    seam || crosses
+                }
             }
             _ => false,
         };
-        let (a_to_b, b_to_a) = (can(ka, kb), can(kb, ka));
+        let (a_to_b, b_to_a) = (can(a, ka, kb), can(b, kb, ka));
         if !a_to_b && !b_to_a {
             return None;
         }
@@ -1052,7 +1114,7 @@ impl Surface {
         if u == v || !self.is_alive(u) || !self.is_alive(v) {
             return Err(Reject::Kind);
         }
-        if !super::is_movable(self.kind(u)) {
+        if !self.may_move(u) {
             return Err(Reject::Kind);
         }
         let v_moves = p != self.pos[v as usize];
@@ -1224,7 +1286,30 @@ impl Surface {
             if dying == 2 && map[0].0 == map[1].0 && map[0].1 != map[1].1 {
                 return Err(Reject::Seam);
             }
+            // Skins: the dominant joint is a discontinuity that is kept (unless
+            // permissive): merged wedges must share it.
+            if let (false, Some(j), Some(wt)) =
+                (self.permissive, &self.attrs.joints, &self.attrs.weights)
+            {
+                let dominant = |w: u32| {
+                    let (jj, ww) = (j[w as usize], wt[w as usize]);
+                    let k = (1..4).fold(0, |b, k| if ww[k] > ww[b] { k } else { b });
+                    jj[k]
+                };
+                if map[..dying]
+                    .iter()
+                    .any(|&(wu, wv)| dominant(wu) != dominant(wv))
+                {
+                    return Err(Reject::Seam);
+                }
+            }
+            // A junction, or a seam point crossing its seam, takes its other wedges
+            // along (see `redirect_corners`).
+            let takes_wedges = self.permissive || self.junction.get(u as usize) == Some(&true);
             for &t in self.fan(u) {
+                if takes_wedges {
+                    break;
+                }
                 let wu = self.wedge(t, self.corner_of(t, u));
                 if wu != map[0].0 && wu != map[1].0 {
                     return Err(Reject::Seam);
@@ -1314,12 +1399,18 @@ impl Surface {
         if v_moves && !self.attrs.is_empty() {
             self.interpolate_attributes(u, v, p);
         }
+        if (self.permissive || self.junction.get(u as usize) == Some(&true))
+            && !self.attrs.is_empty()
+        {
+            self.carry_unmapped_wedges(u, v, p);
+        }
         // `u`'s fan is `fans[su..su + lu]` until `merge_fans` releases it (the steps
         // before change other fans only): read once.
         let su = self.fan_slot[u as usize].start as usize;
         let lu = self.fan_slot[u as usize].len as usize;
         let dying = self.kill_shared_triangles(u, v, su, lu);
         let non_edge = dying.count == 0;
+        self.last_wedge_map = dying.wedge_map;
         self.redirect_corners(u, v, su, lu, non_edge, &dying.wedge_map);
         let new_len = self.merge_fans(u, v, su, lu, dying.count);
         if let Some(m) = self.merged.get_mut(u as usize) {
@@ -1417,10 +1508,16 @@ impl Surface {
                     let w = tw[t as usize][k];
                     let to = if w == wedge_map[0].0 {
                         wedge_map[0].1
-                    } else {
+                    } else if w == wedge_map[1].0 {
                         wedge_map[1].1
+                    } else {
+                        DEAD
                     };
-                    if to != DEAD {
+                    if to == DEAD {
+                        // A wedge of a junction (or of a point crossing its seam)
+                        // off the collapsed edge: it moves to `v` whole.
+                        self.wedge_point[w as usize] = v;
+                    } else {
                         tw[t as usize][k] = to;
                     }
                 }
@@ -1649,6 +1746,55 @@ impl Surface {
         self.scratch_plans = plans;
     }
 
+    /// Before `u` (a junction, or a point crossing its seam) is merged into `v` at
+    /// `p`: each wedge of `u` that no triangle over `v` uses moves to `v` whole
+    /// (`redirect_corners`); its attributes become those at the closest point to
+    /// `p` on `u`'s triangles of that wedge (the linear extension of its side).
+    fn carry_unmapped_wedges(&mut self, u: u32, v: u32, p: [f32; 3]) {
+        let pn = f64x3(p);
+        let mut on_edge = [DEAD; 2];
+        let mut n_edge = 0;
+        let mut others = [(DEAD, f64::INFINITY, DEAD, [0.0; 3]); 8];
+        let mut n = 0;
+        for &t in self.fan(u) {
+            if self.tri[t as usize].contains(&v) && n_edge < 2 {
+                on_edge[n_edge] = self.wedge(t, self.corner_of(t, u));
+                n_edge += 1;
+            }
+        }
+        for &t in self.fan(u) {
+            let w = self.wedge(t, self.corner_of(t, u));
+            if on_edge.contains(&w) {
+                continue;
+            }
+            let q = self.tri[t as usize].map(|x| f64x3(self.pos[x as usize]));
+            let (d2, bary) = closest_on_triangle(pn, q);
+            let slot = match others[..n].iter().position(|e| e.0 == w) {
+                Some(i) => i,
+                None if n < others.len() => {
+                    n += 1;
+                    others[n - 1].0 = w;
+                    n - 1
+                }
+                None => continue,
+            };
+            if d2 < others[slot].1 {
+                others[slot] = (w, d2, t, bary);
+            }
+        }
+        let mut plans = std::mem::take(&mut self.scratch_plans);
+        plans.clear();
+        for &(w, _, t, bary) in &others[..n] {
+            let ws = [self.wedge(t, 0), self.wedge(t, 1), self.wedge(t, 2)];
+            plans.push((w, ws, bary));
+        }
+        // `interpolate_streams` applies up to four plans per call.
+        for chunk in plans.chunks(4) {
+            interpolate_streams(&mut self.attrs, chunk);
+        }
+        self.scratch_plans = plans;
+    }
+
     // ----- output ----------------------------------------------------------------
 
     /// The live triangles as wedge (input vertex) triples and point triples, with
@@ -1727,6 +1873,66 @@ impl Surface {
                 })
                 .collect(),
         )
+    }
+
+    /// The wedge streams' length (input vertices; 0 without attributes).
+    pub(crate) fn wedge_count(&self) -> usize {
+        let a = &self.attrs;
+        [
+            a.normals.as_ref().map(Vec::len),
+            a.tangents.as_ref().map(Vec::len),
+            a.uv0.as_ref().map(Vec::len),
+            a.uv1.as_ref().map(Vec::len),
+            a.colors.as_ref().map(Vec::len),
+            a.joints.as_ref().map(Vec::len),
+            a.weights.as_ref().map(Vec::len),
+        ]
+        .into_iter()
+        .flatten()
+        .max()
+        .unwrap_or(0)
+    }
+
+    /// The working attribute streams, for a cost model that solves them.
+    pub(crate) fn attributes_mut(&mut self) -> &mut VertexAttributes {
+        &mut self.attrs
+    }
+
+    /// The distinct wedges of `p`'s live triangles into `out` (at most its
+    /// length); returns how many.
+    pub(crate) fn point_wedges(&self, p: u32, out: &mut [u32]) -> usize {
+        let mut n = 0;
+        for &t in self.fan(p) {
+            let w = self.wedge(t, self.corner_of(t, p));
+            if !out[..n].contains(&w) && n < out.len() {
+                out[n] = w;
+                n += 1;
+            }
+        }
+        n
+    }
+
+    /// `(a's wedge, b's wedge)` in (up to) the first two triangles on edge `(a, b)`
+    /// ([`DEAD`] where fewer): the wedges a collapse of the edge merges.
+    pub(crate) fn edge_wedges(&self, a: u32, b: u32) -> [(u32, u32); 2] {
+        let mut out = [(DEAD, DEAD); 2];
+        let mut n = 0;
+        for &t in self.fan(a) {
+            if n < 2 && self.tri[t as usize].contains(&b) {
+                out[n] = (
+                    self.wedge(t, self.corner_of(t, a)),
+                    self.wedge(t, self.corner_of(t, b)),
+                );
+                n += 1;
+            }
+        }
+        out
+    }
+
+    /// `(u's wedge, v's wedge)` on the (up to two) triangles the last collapse
+    /// removed ([`DEAD`] where fewer).
+    pub(crate) fn last_wedge_map(&self) -> [(u32, u32); 2] {
+        self.last_wedge_map
     }
 
     /// Takes the working attribute streams out (for building the output).

@@ -440,3 +440,107 @@ fn prefetch_hints_accept_any_point_and_change_nothing() {
     assert!(!s.is_alive(u) && s.is_alive(v));
     assert_consistent(&s);
 }
+
+/// A hexagonal fan whose centre is a seam junction: three UV charts (A, B, C; u
+/// offset by 10 per chart) meet at the centre 0 along the seam edges 0–1, 0–3 and
+/// 0–5 (ring points 1, 3 and 5 have a wedge on each side):
+///
+/// ```text
+///         3 ----- 2
+///        / \  A  / \        sectors (triangles (0, k, k+1)):
+///       / B \   / A \       A = (0,1,2), (0,2,3)
+///      4 --- 0 ----- 1      B = (0,3,4), (0,4,5)
+///       \ B / \ C   /       C = (0,5,6), (0,6,1)
+///        \ /  C \ /        seams: 0–1 (C|A), 0–3 (A|B), 0–5 (B|C)
+///         5 ----- 6
+/// ```
+///
+/// Frozen without `move_junctions`; with it, the centre collapses along the seam
+/// edge 0–1 onto 1: the triangles of A and C take point 1's wedges of their side,
+/// B's triangles take the centre's B wedge, moved to point 1, and every triangle's
+/// UVs stay in its chart.
+#[test]
+fn seam_junction_slides_along_its_seam() {
+    let ring: Vec<[f32; 3]> = (0..6)
+        .map(|k| {
+            let a = std::f32::consts::FRAC_PI_3 * k as f32;
+            [a.cos(), a.sin(), 0.0]
+        })
+        .collect();
+    // Ring point k + 1 is ring[k]; sector of triangle (0, k, k + 1), k = 1..=6.
+    let sector = |k: usize| (k - 1) / 2;
+    let mut positions = Vec::new();
+    let mut uv = Vec::new();
+    let mut ids = std::collections::HashMap::new();
+    let mut vertex = |p: usize, s: usize, positions: &mut Vec<[f32; 3]>| {
+        *ids.entry((p, s)).or_insert_with(|| {
+            let x = if p == 0 { [0.0, 0.0, 0.0] } else { ring[p - 1] };
+            positions.push(x);
+            uv.push([x[0] + 10.0 * s as f32, x[1]]);
+            positions.len() as u32 - 1
+        })
+    };
+    let mut tris = Vec::new();
+    for k in 1..=6 {
+        let s = sector(k);
+        let next = k % 6 + 1;
+        tris.push([
+            vertex(0, s, &mut positions),
+            vertex(k, s, &mut positions),
+            vertex(next, s, &mut positions),
+        ]);
+    }
+    let mut m = Mesh::from_triangles(positions, tris);
+    m.attributes.uv0 = Some(uv);
+    let point_at = |s: &Surface, x: [f32; 3]| {
+        (0..s.point_count() as u32)
+            .find(|&p| s.position(p) == x)
+            .expect("point")
+    };
+    let mut pv = Preview::default();
+    let mut frozen = surface(&m);
+    let (c, p1) = (point_at(&frozen, [0.0; 3]), point_at(&frozen, ring[0]));
+    assert_eq!(frozen.kind(c), VertexKind::Complex);
+    assert!(frozen.moves(c, p1, false).is_none());
+    assert_eq!(
+        frozen.check(c, p1, frozen.position(p1), &limits(), &mut pv),
+        Err(Reject::Kind)
+    );
+    let (mut s, _) = Surface::build(
+        &m,
+        &BuildOptions {
+            move_junctions: true,
+            ..BuildOptions::default()
+        },
+    );
+    let mv = s
+        .moves(c, p1, false)
+        .expect("a junction may slide along its seam");
+    assert!(mv.a_to_b && !mv.b_to_a && mv.merge == Merge::No);
+    // Not across a chart: edge 0–2 is inside chart A.
+    let p2 = point_at(&s, ring[1]);
+    assert!(s.moves(c, p2, false).is_none_or(|m| !m.a_to_b));
+    s.check(c, p1, s.position(p1), &limits(), &mut pv)
+        .expect("legal");
+    s.collapse(c, p1, s.position(p1));
+    assert_consistent(&s);
+    assert_eq!(s.live_triangles(), 4);
+    let (tw, _, _) = s.output_triangles();
+    let u = s.attributes().uv0.as_ref().expect("uv");
+    for t in &tw {
+        let charts = t.map(|w| (u[w as usize][0] + 5.0).div_euclid(10.0) as i32);
+        assert!(
+            charts[0] == charts[1] && charts[1] == charts[2],
+            "{t:?}: {charts:?}"
+        );
+    }
+    // Point 1 now has three wedges, one per chart.
+    let mut w = [DEAD; 8];
+    let n = s.point_wedges(p1, &mut w);
+    let mut charts: Vec<i32> = w[..n]
+        .iter()
+        .map(|&x| (u[x as usize][0] + 5.0).div_euclid(10.0) as i32)
+        .collect();
+    charts.sort_unstable();
+    assert_eq!(charts, vec![0, 1, 2]);
+}

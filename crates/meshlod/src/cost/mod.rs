@@ -11,9 +11,11 @@
 //! `removed` and the `kept` point, so a half-edge cost (Melax's `u → v`) is expressed
 //! by evaluating both directions the [`Moves`] allow and returning the better.
 
+mod attributes;
 mod melax;
 mod qem;
 
+pub use attributes::AttributeWeights;
 pub use melax::{Melax, MelaxOptions};
 pub use qem::{Placement, Qem, QemOptions, QEM_CONDITION};
 
@@ -106,6 +108,11 @@ pub trait CostModel {
 
     /// Updates the state after `record` was performed (`surface` is already updated).
     fn collapsed(&mut self, surface: &Surface, record: &CollapseRecord);
+
+    /// After [`CostModel::collapsed`]: a model that solves for attribute values
+    /// writes those of the survivor's wedges into the surface. Default: nothing
+    /// (the operator's interpolation stands).
+    fn write_attributes(&self, _surface: &mut Surface, _record: &CollapseRecord) {}
 
     /// The exact priority of `candidate` (which the operator and the filters have
     /// accepted), for a model whose [`CostModel::evaluate`] cost is a cheaper lower

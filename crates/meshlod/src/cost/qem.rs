@@ -18,7 +18,8 @@
 //! distances); the reported error is [`Quadric::distance`] of it: the area-weighted
 //! RMS distance to the accumulated planes.
 
-use super::{Candidate, CostModel};
+use super::attributes::WedgeQuadrics;
+use super::{AttributeWeights, Candidate, CostModel};
 use crate::collapse::{CollapseRecord, Merge, Moves, Surface};
 use crate::mesh::VertexKind;
 use crate::quadric::{cross, sub, Quadric};
@@ -85,6 +86,14 @@ pub struct QemOptions {
     /// far off the new triangles; ordinary collapses, whose old points lie within
     /// the quadric's own RMS distance of the new surface, keep their cost.
     pub displacement_guard: f64,
+    /// Weights of the attribute streams (normals, texture coordinates, colours) in
+    /// the cost, in Hoppe's memory-efficient form of the attribute quadric (see
+    /// the `attributes` module). With any stream present and weighted, every
+    /// wedge keeps its attribute sums, collapses pay for the attribute error of the
+    /// wedges they merge, and the survivor's wedges get the attribute values that
+    /// minimise it at its position (with [`Placement::Endpoint`], where no vertex
+    /// moves, they keep their values). Default [`AttributeWeights::default`].
+    pub attribute_weights: AttributeWeights,
 }
 
 impl Default for QemOptions {
@@ -97,6 +106,7 @@ impl Default for QemOptions {
             placement: Placement::Optimal,
             area_exponent: 1.0,
             displacement_guard: 0.0,
+            attribute_weights: AttributeWeights::default(),
         }
     }
 }
@@ -106,6 +116,10 @@ impl Default for QemOptions {
 pub struct Qem {
     options: QemOptions,
     quadrics: Vec<Quadric>,
+    /// Per-wedge attribute sums (`None` without weighted attributes); the
+    /// quadrics above are then the reduced ones (point quadric minus the Schur
+    /// terms of its wedges).
+    wedges: Option<WedgeQuadrics>,
     /// [`Qem::keep_quadrics`] was called: `init` keeps the quadrics it has.
     keep: bool,
 }
@@ -117,6 +131,7 @@ impl Qem {
         Self {
             options,
             quadrics: Vec::new(),
+            wedges: None,
             keep: false,
         }
     }
@@ -129,7 +144,29 @@ impl Qem {
         self.keep = true;
     }
 
-    /// The quadric of point `p` (zero before [`CostModel::init`]).
+    /// The quadric of pair `(a, b)`: their sum, with the attribute terms of the
+    /// wedges an edge collapse merges.
+    #[inline(always)]
+    fn pair_quadric(&self, surface: &Surface, a: u32, b: u32) -> Quadric {
+        if self.wedges.is_some() {
+            return self.pair_quadric_with_attributes(surface, a, b);
+        }
+        self.quadrics[a as usize].sum(&self.quadrics[b as usize])
+    }
+
+    /// [`Self::pair_quadric`] with attribute terms (out of line, so that the
+    /// attribute-free path stays as lean as without them).
+    #[inline(never)]
+    fn pair_quadric_with_attributes(&self, surface: &Surface, a: u32, b: u32) -> Quadric {
+        let mut q = self.quadrics[a as usize].sum(&self.quadrics[b as usize]);
+        if let Some(w) = &self.wedges {
+            q.add(&w.correction(&surface.edge_wedges(a, b)));
+        }
+        q
+    }
+
+    /// The quadric of point `p` (zero before [`CostModel::init`]); with weighted
+    /// attributes, reduced by the attribute terms of its wedges.
     #[must_use]
     pub fn quadric(&self, p: u32) -> Quadric {
         self.quadrics
@@ -236,6 +273,7 @@ impl CostModel for Qem {
         }
         self.quadrics.clear();
         self.quadrics.resize(n, Quadric::ZERO);
+        self.wedges = WedgeQuadrics::new(surface, &self.options.attribute_weights);
         // Mean triangle area (the scale of non-area weights, `area_exponent`).
         let mut mean_area = 0.0f64;
         if self.options.area_exponent != 1.0 {
@@ -271,6 +309,9 @@ impl CostModel for Qem {
                 for p in tt {
                     self.quadrics[p as usize].add(&q);
                 }
+                if let Some(w) = &mut self.wedges {
+                    w.add_triangle(surface, t, [a, b, c], q.weight, &mut self.quadrics);
+                }
             }
         }
         let (wb, ws) = (self.options.boundary_weight, self.options.seam_weight);
@@ -289,11 +330,14 @@ impl CostModel for Qem {
                 self.quadrics[b as usize].add(&q);
             }
         });
+        if let Some(w) = &self.wedges {
+            w.reduce(surface, &mut self.quadrics);
+        }
     }
 
     #[inline(always)]
     fn evaluate(&self, surface: &Surface, a: u32, b: u32, moves: &Moves) -> Option<Candidate> {
-        let q = self.quadrics[a as usize].sum(&self.quadrics[b as usize]);
+        let q = self.pair_quadric(surface, a, b);
         let (choice, cost) = self.choose(&q, surface, a, b, moves)?;
         let (removed, kept, position) = match choice {
             Choice::At { removed, kept } => (removed, kept, surface.position(kept).map(f64::from)),
@@ -326,7 +370,7 @@ impl CostModel for Qem {
         b: u32,
         moves: &Moves,
     ) -> Option<f64> {
-        let q = self.quadrics[a as usize].sum(&self.quadrics[b as usize]);
+        let q = self.pair_quadric(surface, a, b);
         self.choose_at(&q, surface, a, pa, b, moves)
             .map(|(_, cost)| cost)
     }
@@ -397,9 +441,28 @@ impl CostModel for Qem {
         }
     }
 
-    fn collapsed(&mut self, _surface: &Surface, record: &CollapseRecord) {
+    fn collapsed(&mut self, surface: &Surface, record: &CollapseRecord) {
         let r = self.quadrics[record.removed as usize];
         self.quadrics[record.kept as usize].add(&r);
+        if let Some(w) = &mut self.wedges {
+            if !record.non_edge {
+                let map = surface.last_wedge_map();
+                let c = w.correction(&map);
+                self.quadrics[record.kept as usize].add(&c);
+                w.merge(&map);
+            }
+        }
+    }
+
+    fn write_attributes(&self, surface: &mut Surface, record: &CollapseRecord) {
+        // Endpoint placement keeps every vertex as it was, attributes included
+        // (what a progressive mesh's vertex splits restore).
+        if self.options.placement == Placement::Endpoint {
+            return;
+        }
+        if let Some(w) = &self.wedges {
+            w.write_point(surface, record.kept);
+        }
     }
 }
 

@@ -458,6 +458,7 @@ impl<C: CostModel + ?Sized> Driver<'_, C> {
         record.cost = exact;
         record.error = c.error;
         self.cost.collapsed(self.surface, &record);
+        self.cost.write_attributes(self.surface, &record);
         out.collapses += 1;
         if record.non_edge {
             out.non_edge_contractions += 1;
@@ -611,7 +612,7 @@ fn no_legal_collapse_detail(surface: &Surface, r: &Rejections) -> String {
     for p in 0..surface.point_count() as u32 {
         if surface.is_alive(p) {
             live += 1;
-            if !crate::collapse::is_movable(surface.kind(p)) {
+            if !surface.may_move(p) {
                 fixed += 1;
             }
         }

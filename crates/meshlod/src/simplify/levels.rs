@@ -111,6 +111,8 @@ pub fn simplify_levels(
             locked: options.locked_vertices.as_deref(),
             spatial_order: true,
             track_merges: false,
+            move_junctions: options.moves_junctions(),
+            permissive: options.permissive && options.method == Method::Qem,
         },
     );
     let diag = surface.diagonal();

@@ -432,10 +432,16 @@ fn uv_seam_is_not_torn() {
             );
         }
     }
-    // Seam vertices stay on the seam line.
+    // Seam vertices stay on the seam line, their u that of the line (up to the
+    // attribute solve's optimum over the bumpy triangles around, whose UV
+    // gradients lie in their tilted planes).
     for (i, q) in uv.iter().enumerate() {
         if out.positions[i][0] == 0.5 {
-            assert!(q[0] == 0.5 || q[0] == 10.5);
+            assert!(
+                (q[0] - 0.5).abs() < 1e-3 || (q[0] - 10.5).abs() < 1e-3,
+                "u {} on the seam line",
+                q[0]
+            );
         }
     }
 }

@@ -23,6 +23,7 @@ mod lod;
 mod measure;
 mod memory;
 mod pm;
+mod preview;
 mod render;
 mod simplify;
 mod terrain;

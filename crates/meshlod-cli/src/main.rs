@@ -28,6 +28,7 @@ mod render;
 mod simplify;
 mod terrain;
 mod textures;
+mod view;
 
 use clap::{CommandFactory, FromArgMatches, Parser, Subcommand};
 use std::process::ExitCode;
@@ -71,6 +72,9 @@ enum Command {
     /// Draw meshes to a PNG picture: side by side, shaded, with an optional
     /// wireframe and a heat map of the distance to a reference.
     Render(Box<render::RenderArgs>),
+    /// Write a self-contained HTML page (WebGL, no network) to orbit the meshes,
+    /// switch levels, toggle the wireframe and a heat map.
+    View(Box<view::ViewArgs>),
 }
 
 /// The error and its causes on one line, `: `-separated, each once: a cause whose
@@ -155,6 +159,7 @@ fn main() -> ExitCode {
         Command::Pm(cmd) => pm::run(&cmd),
         Command::Terrain(args) => terrain::run(&args),
         Command::Render(args) => render::run(&args),
+        Command::View(args) => view::run(&args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

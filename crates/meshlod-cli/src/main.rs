@@ -18,6 +18,7 @@ macro_rules! out {
 
 mod dag;
 mod heatmap;
+mod impostor;
 mod info;
 mod lod;
 mod measure;
@@ -75,6 +76,9 @@ enum Command {
     /// Write a self-contained HTML page (WebGL, no network) to orbit the meshes,
     /// switch levels, toggle the wireframe and a heat map.
     View(Box<view::ViewArgs>),
+    /// Impostor for the farthest level: the object drawn from N directions into an
+    /// RGBA atlas (octahedral layout), written as a GLB quad textured with it.
+    Impostor(Box<impostor::ImpostorArgs>),
 }
 
 /// The error and its causes on one line, `: `-separated, each once: a cause whose
@@ -160,6 +164,7 @@ fn main() -> ExitCode {
         Command::Terrain(args) => terrain::run(&args),
         Command::Render(args) => render::run(&args),
         Command::View(args) => view::run(&args),
+        Command::Impostor(args) => impostor::run(&args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -37,6 +37,7 @@
 //! ```
 
 mod camera;
+pub mod impostor;
 pub mod colormap;
 pub mod font;
 mod raster;

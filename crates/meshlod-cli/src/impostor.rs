@@ -114,7 +114,8 @@ pub fn run(args: &ImpostorArgs) -> Result<()> {
     std::fs::write(&args.output, &glb)
         .with_context(|| format!("{}: cannot write", args.output.display()))?;
     if let Some(p) = &args.atlas {
-        let file = std::fs::File::create(p).with_context(|| format!("{}: cannot write", p.display()))?;
+        let file =
+            std::fs::File::create(p).with_context(|| format!("{}: cannot write", p.display()))?;
         imp.atlas
             .encode_png(std::io::BufWriter::new(file))
             .with_context(|| format!("{}: cannot write", p.display()))?;

@@ -389,7 +389,11 @@ pub fn run(args: &LodArgs) -> Result<()> {
 /// part shows its own level, or its coarsest when it has fewer; parts without a
 /// chain show themselves.
 fn scene_levels(scene: &Scene, chains: &[(usize, Chain)]) -> Vec<Mesh> {
-    let n = chains.iter().map(|(_, c)| c.levels.len()).max().unwrap_or(1);
+    let n = chains
+        .iter()
+        .map(|(_, c)| c.levels.len())
+        .max()
+        .unwrap_or(1);
     (0..n)
         .map(|k| {
             let mut s = Scene {
@@ -425,7 +429,11 @@ fn write_strip(path: &Path, levels: &[Mesh], rows: &[LevelRow]) -> Result<()> {
             (
                 m,
                 vec![
-                    format!("LOD{}  {} triangles", r.level, thousands(m.triangle_count())),
+                    format!(
+                        "LOD{}  {} triangles",
+                        r.level,
+                        thousands(m.triangle_count())
+                    ),
                     second,
                 ],
             )

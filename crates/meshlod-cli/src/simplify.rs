@@ -686,7 +686,14 @@ pub fn run(args: &SimplifyArgs) -> Result<()> {
         )
     });
     if let Some(p) = &args.preview {
-        preview(args, p, &scene.flattened(), &out_scene.flattened(), &agg, measure.as_ref())?;
+        preview(
+            args,
+            p,
+            &scene.flattened(),
+            &out_scene.flattened(),
+            &agg,
+            measure.as_ref(),
+        )?;
     }
     let times = Times {
         read_seconds,
@@ -707,14 +714,8 @@ fn preview(
 ) -> Result<()> {
     use crate::preview::{file_name, percent, thousands};
     let error = match measure {
-        Some(d) => format!(
-            "Hausdorff {}",
-            percent(d.hausdorff, d.bbox_diagonal)
-        ),
-        None => format!(
-            "est. error {}",
-            percent(agg.error_absolute, agg.diag)
-        ),
+        Some(d) => format!("Hausdorff {}", percent(d.hausdorff, d.bbox_diagonal)),
+        None => format!("est. error {}", percent(agg.error_absolute, agg.diag)),
     };
     let panels = [
         (

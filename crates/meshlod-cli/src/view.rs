@@ -104,7 +104,11 @@ fn gltf_levels(scene: &Scene) -> Option<Vec<(Mesh, Option<&Value>)>> {
             .get(part)?
             .pointer("/extras/meshlod_lod")
     };
-    let single = if lods.len() == 1 { extras(lods[0].0) } else { None };
+    let single = if lods.len() == 1 {
+        extras(lods[0].0)
+    } else {
+        None
+    };
     Some(
         (0..n)
             .map(|k| {

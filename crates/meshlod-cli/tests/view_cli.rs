@@ -133,7 +133,10 @@ fn too_many_triangles_are_refused_with_advice() {
         "1000",
     ]);
     let err = String::from_utf8_lossy(&o.stderr);
-    assert!(!o.status.success() && err.contains("meshlod simplify"), "{err}");
+    assert!(
+        !o.status.success() && err.contains("meshlod simplify"),
+        "{err}"
+    );
     assert!(!page.exists());
 }
 
@@ -287,4 +290,63 @@ fn previews_show_input_and_output_and_the_lod_strip() {
     assert_eq!(r["preview"], s(&strip));
     let (w, h, _) = decode(&strip);
     assert_eq!((w, h), (3 * 640, 560));
+}
+
+#[test]
+fn impostor_writes_a_glb_with_the_atlas_and_refuses_bad_view_counts() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let glb = dir.path().join("spot.glb");
+    let atlas = dir.path().join("atlas.png");
+    let spot = data("spot.obj");
+    let r = ok(&meshlod(&[
+        "impostor",
+        s(&spot),
+        "-o",
+        s(&glb),
+        "--views",
+        "16",
+        "--size",
+        "256",
+        "--atlas",
+        s(&atlas),
+        "--json",
+    ]));
+    assert_eq!(
+        (r["grid"].as_u64(), r["tile_px"].as_u64()),
+        (Some(4), Some(64))
+    );
+    let covered = r["covered_fraction"].as_f64().expect("fraction");
+    assert!(covered > 0.05 && covered < 0.6, "{covered}");
+    let bytes = std::fs::read(&glb).expect("glb");
+    assert_eq!(&bytes[..4], b"glTF");
+    let jl = u32::from_le_bytes(bytes[12..16].try_into().unwrap()) as usize;
+    let doc: serde_json::Value = serde_json::from_slice(&bytes[20..20 + jl]).expect("JSON");
+    let layout = &doc["nodes"][0]["extras"]["meshlod_impostor"];
+    assert_eq!(layout["mapping"], "octahedral");
+    assert_eq!(layout["directions"].as_array().expect("dirs").len(), 16);
+    assert_eq!(layout["source_triangles"].as_u64(), r["triangles"].as_u64());
+    assert_eq!(doc["materials"][0]["alphaMode"], "MASK");
+    // The atlas file: every tile shows the cow (some opaque texels), the
+    // background is transparent.
+    let file = std::fs::File::open(&atlas).expect("atlas");
+    let mut dec = png::Decoder::new(std::io::BufReader::new(file))
+        .read_info()
+        .expect("png");
+    let mut buf = vec![0; dec.output_buffer_size().expect("size")];
+    let info = dec.next_frame(&mut buf).expect("data");
+    assert_eq!((info.width, info.color_type), (256, png::ColorType::Rgba));
+    assert_eq!(buf[3], 0, "the corner is transparent");
+    for t in 0..16 {
+        let (c, row) = (t % 4, t / 4);
+        let opaque = (0..64)
+            .flat_map(|y| (0..64).map(move |x| (x, y)))
+            .filter(|&(x, y)| buf[4 * ((row * 64 + y) * 256 + c * 64 + x) + 3] == 255)
+            .count();
+        assert!(opaque > 200, "tile {t}: {opaque} opaque texels");
+    }
+    for bad in ["0", "10"] {
+        let o = meshlod(&["impostor", s(&spot), "-o", s(&glb), "--views", bad]);
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert!(!o.status.success() && err.contains("square"), "{err}");
+    }
 }

@@ -416,7 +416,12 @@ mod tests {
     #[test]
     fn alpha_is_the_covered_fraction() {
         let m = Mesh::from_triangles(
-            vec![[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [1.0, 1.0, 0.0], [0.0, 1.0, 0.0]],
+            vec![
+                [0.0, 0.0, 0.0],
+                [1.0, 0.0, 0.0],
+                [1.0, 1.0, 0.0],
+                [0.0, 1.0, 0.0],
+            ],
             vec![[0, 1, 2], [0, 2, 3]],
         );
         let o = ImpostorOptions {
@@ -453,7 +458,12 @@ mod tests {
     fn every_view_sees_a_closed_object_and_the_glb_holds_the_atlas() {
         // A tetrahedron: seen from anywhere, it covers part of its tile.
         let m = Mesh::from_triangles(
-            vec![[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]],
+            vec![
+                [0.0, 0.0, 0.0],
+                [1.0, 0.0, 0.0],
+                [0.0, 1.0, 0.0],
+                [0.0, 0.0, 1.0],
+            ],
             vec![[0, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 3]],
         );
         let o = ImpostorOptions {
@@ -473,7 +483,10 @@ mod tests {
         }
         let glb = impostor_glb(&imp, serde_json::json!({"source": "tet"})).unwrap();
         assert_eq!(&glb[..4], b"glTF");
-        assert_eq!(u32::from_le_bytes(glb[8..12].try_into().unwrap()) as usize, glb.len());
+        assert_eq!(
+            u32::from_le_bytes(glb[8..12].try_into().unwrap()) as usize,
+            glb.len()
+        );
         let jl = u32::from_le_bytes(glb[12..16].try_into().unwrap()) as usize;
         let doc: serde_json::Value = serde_json::from_slice(&glb[20..20 + jl]).unwrap();
         let l = &doc["nodes"][0]["extras"]["meshlod_impostor"];

@@ -37,9 +37,9 @@
 //! ```
 
 mod camera;
-pub mod impostor;
 pub mod colormap;
 pub mod font;
+pub mod impostor;
 mod raster;
 #[cfg(test)]
 mod tests;

@@ -24,6 +24,11 @@
 //! - **Textures**: a base-colour [`Texture`] per material group, sampled bilinearly
 //!   at the interpolated UVs, lit like the untextured surface.
 //! - **Text**: captions and legend labels in an embedded 5×7 bitmap font ([`font`]).
+//! - **Viewer page** ([`viewer`]): the meshes and meshlod's own WebGL script in one
+//!   self-contained HTML file, drawing what this renderer draws, interactively.
+//! - **Impostors** ([`impostor`]): the object drawn from octahedrally mapped
+//!   directions into an RGBA atlas with alpha coverage, written as a textured GLB
+//!   quad (Maciel & Shirley 1995; Cigolle et al. 2014).
 //!
 //! ```
 //! use meshlod::render::{render, RenderOptions};

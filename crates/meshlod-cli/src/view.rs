@@ -147,7 +147,7 @@ fn read_levels(args: &ViewArgs) -> Result<Vec<Level>> {
                         .and_then(|v| v.get(k))
                         .and_then(Value::as_f64)
                 };
-                if let (Some(e), Some(d)) = (pick("error_max"), pick("switch_distance")) {
+                if let (Some(e), Some(d)) = (pick("error_max"), pick("switch_distances")) {
                     info.push_str(&format!(
                         ", error {} units, switch distance {}",
                         render::sig3(e),

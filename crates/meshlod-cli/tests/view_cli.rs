@@ -145,20 +145,11 @@ fn ink(p: [u8; 3]) -> bool {
     p.iter().any(|&c| c < 235)
 }
 
-#[test]
-fn chromium_shows_the_model_where_the_cpu_renderer_draws_it() {
-    let chromium = Path::new("/usr/bin/chromium");
-    if !chromium.exists() {
-        eprintln!("notice: /usr/bin/chromium is absent; the viewer's browser test is skipped");
-        return;
-    }
-    let dir = tempfile::tempdir().expect("tempdir");
-    let page = dir.path().join("bunny.html");
-    let bunny = data("stanford-bunny.obj");
-    ok(&meshlod(&["view", s(&bunny), "-o", s(&page), "--json"]));
-    let shot = dir.path().join("shot.png");
-    let profile = dir.path().join("profile");
-    let url = format!("file://{}", s(&page));
+/// Headless Chromium's 800 × 600 screenshot of `page`, written in `dir`.
+fn screenshot(chromium: &Path, page: &Path, dir: &Path) -> PathBuf {
+    let shot = dir.join("shot.png");
+    let profile = dir.join("profile");
+    let url = format!("file://{}", s(page));
     let out = Command::new(chromium)
         .args([
             "--headless",
@@ -182,6 +173,74 @@ fn chromium_shows_the_model_where_the_cpu_renderer_draws_it() {
         "no screenshot: {}",
         String::from_utf8_lossy(&out.stderr)
     );
+    shot
+}
+
+/// The page with a heat map shows the model in viridis colours, not grey.
+#[test]
+fn chromium_shows_the_heat_map() {
+    let chromium = Path::new("/usr/bin/chromium");
+    if !chromium.exists() {
+        eprintln!("notice: /usr/bin/chromium is absent; the viewer's heat-map test is skipped");
+        return;
+    }
+    let dir = tempfile::tempdir().expect("tempdir");
+    let bunny = data("stanford-bunny.obj");
+    let coarse = dir.path().join("coarse.ply");
+    ok(&meshlod(&[
+        "simplify",
+        s(&bunny),
+        "-o",
+        s(&coarse),
+        "--ratio",
+        "0.02",
+        "--json",
+    ]));
+    let page = dir.path().join("heat.html");
+    ok(&meshlod(&[
+        "view",
+        s(&coarse),
+        "--heatmap-vs",
+        s(&bunny),
+        "-o",
+        s(&page),
+        "--json",
+    ]));
+    let shot = screenshot(chromium, &page, dir.path());
+    let (w, h, px) = decode(&shot);
+    // Between the tool bar and the legend.
+    let inked: Vec<[u8; 3]> = (90..h - 80)
+        .flat_map(|y| (0..w).map(move |x| (x, y)))
+        .map(|(x, y)| px[y * w + x])
+        .filter(|&p| ink(p))
+        .collect();
+    assert!(inked.len() > 20_000, "{} pixels of ink", inked.len());
+    let coloured = inked
+        .iter()
+        .filter(|p| {
+            let (lo, hi) = (p.iter().min().unwrap(), p.iter().max().unwrap());
+            hi - lo > 40
+        })
+        .count();
+    assert!(
+        coloured as f64 > 0.8 * inked.len() as f64,
+        "{coloured} of {} pixels coloured",
+        inked.len()
+    );
+}
+
+#[test]
+fn chromium_shows_the_model_where_the_cpu_renderer_draws_it() {
+    let chromium = Path::new("/usr/bin/chromium");
+    if !chromium.exists() {
+        eprintln!("notice: /usr/bin/chromium is absent; the viewer's browser test is skipped");
+        return;
+    }
+    let dir = tempfile::tempdir().expect("tempdir");
+    let page = dir.path().join("bunny.html");
+    let bunny = data("stanford-bunny.obj");
+    ok(&meshlod(&["view", s(&bunny), "-o", s(&page), "--json"]));
+    let shot = screenshot(chromium, &page, dir.path());
     let (w, h, px) = decode(&shot);
     assert_eq!((w, h), (800, 600));
     // The CPU renderer's picture of the same view, without captions.

@@ -349,6 +349,35 @@ fn previews_show_input_and_output_and_the_lod_strip() {
     assert_eq!(r["preview"], s(&strip));
     let (w, h, _) = decode(&strip);
     assert_eq!((w, h), (3 * 640, 560));
+
+    // A glTF scene kept as a scene: one panel per level of its chain.
+    let duck = std::fs::read_dir(data("Duck"))
+        .expect("Duck")
+        .map(|e| e.expect("entry").path())
+        .find(|p| p.extension().is_some_and(|e| e == "gltf" || e == "glb"))
+        .expect("a glTF duck");
+    let strip = dir.path().join("duck.png");
+    let r = ok(&meshlod(&[
+        "lod",
+        s(&duck),
+        "-o",
+        s(&dir.path().join("duck.glb")),
+        "--levels",
+        "2",
+        "--preview",
+        s(&strip),
+        "--json",
+    ]));
+    let levels = r["levels"].as_array().expect("levels").len();
+    let (w, _, px) = decode(&strip);
+    assert_eq!(w, levels * 640);
+    for k in 0..levels {
+        let ink = (0..500)
+            .flat_map(|y| (k * 640..(k + 1) * 640).map(move |x| (x, y)))
+            .filter(|&(x, y)| px[y * w + x] != render::BACKGROUND)
+            .count();
+        assert!(ink > 5_000, "level {k}: {ink} pixels");
+    }
 }
 
 #[test]

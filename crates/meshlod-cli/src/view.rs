@@ -164,11 +164,7 @@ fn read_levels(args: &ViewArgs) -> Result<Vec<Level>> {
         } else {
             let mesh = crate::textures::into_mesh(scene);
             crate::warn_precision(path, &mesh);
-            let label = if args.inputs.len() > 1 {
-                format!("{}", levels.len())
-            } else {
-                name.clone()
-            };
+            let label = name.clone();
             levels.push(Level {
                 info: format!(
                     "{name}: {} triangles, {} vertices",

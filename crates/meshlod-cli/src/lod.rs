@@ -16,6 +16,7 @@ use meshlod::io::{read_scene, write_scene, Format, Scene, WriteOptions};
 use meshlod::lod::{build_chain, select, Chain, ChainOptions, LevelSpec, LodObject, Screen, View};
 use meshlod::metrics::SamplingOptions;
 use meshlod::simplify::{Method, SimplifyOptions};
+use meshlod::Mesh;
 use serde::Serialize;
 use serde_json::{json, Value};
 use std::io::IsTerminal;
@@ -72,6 +73,11 @@ pub struct LodArgs {
     /// measure --samples N` with the same N reports the same distances.
     #[arg(long, value_name = "N")]
     pub samples: Option<usize>,
+    /// Also write a PNG picture of the levels side by side, LOD0 first (same camera,
+    /// iso view), each captioned with its level, triangles, error and switch
+    /// distance.
+    #[arg(long, value_name = "OUT.png")]
+    pub preview: Option<PathBuf>,
     /// Print the report as JSON.
     #[arg(long)]
     pub json: bool,
@@ -163,6 +169,9 @@ struct Report {
     simplify_seconds: f64,
     measure_seconds: f64,
     seconds: f64,
+    /// The LOD strip written (with --preview).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    preview: Option<String>,
 }
 
 fn rows(chain: &Chain) -> Vec<LevelRow> {
@@ -294,7 +303,10 @@ pub fn run(args: &LodArgs) -> Result<()> {
         is_gltf(Format::from_path(input)) && is_gltf(Some(out_format)) && scene.gltf.is_some();
     let mut meshes = Vec::new();
     let mut outputs = Vec::new();
+    // With --preview: the levels to draw, LOD0 first.
+    let mut strip: Vec<Mesh> = Vec::new();
     if per_part {
+        let mut chains = Vec::new();
         let mut out = scene.clone();
         let mut lods = Vec::new();
         for (i, part) in scene.parts.iter().enumerate() {
@@ -308,6 +320,12 @@ pub fn run(args: &LodArgs) -> Result<()> {
                 lods.push(mesh_lods(i, &chain, &opts.screen));
             }
             meshes.push(mesh_row(name, part.instances.len(), &chain));
+            if args.preview.is_some() {
+                chains.push((i, chain));
+            }
+        }
+        if args.preview.is_some() {
+            strip = scene_levels(&scene, &chains);
         }
         add_lods(&mut out, lods).with_context(|| format!("{}", output.display()))?;
         write_scene(output, &out, &WriteOptions::default())?;
@@ -317,6 +335,9 @@ pub fn run(args: &LodArgs) -> Result<()> {
         let name = input.display().to_string();
         let chain = build_chain(&mesh, &opts).with_context(|| name.clone())?;
         progress(&name, &chain);
+        if args.preview.is_some() {
+            strip = chain.levels.iter().map(|l| l.mesh.clone()).collect();
+        }
         if is_gltf(Some(out_format)) {
             let mut out = Scene::from_mesh(mesh);
             out.material_libraries = scene.material_libraries.clone();
@@ -337,6 +358,10 @@ pub fn run(args: &LodArgs) -> Result<()> {
         }
         meshes.push(mesh_row(name, 1, &chain));
     }
+    let levels = totals(&meshes);
+    if let Some(p) = &args.preview {
+        write_strip(p, &strip, &levels)?;
+    }
     let report = Report {
         input: input.display().to_string(),
         outputs,
@@ -345,11 +370,12 @@ pub fn run(args: &LodArgs) -> Result<()> {
         screen_height_px: opts.screen.screen_height_px,
         fov_degrees: opts.screen.fov_degrees,
         units: "errors and distances in mesh units (each mesh's own, before its node transforms)",
-        levels: totals(&meshes),
+        levels,
         simplify_seconds: meshes.iter().map(|m| m.simplify_seconds).sum(),
         measure_seconds: meshes.iter().map(|m| m.measure_seconds).sum(),
         meshes,
         seconds: start.elapsed().as_secs_f64(),
+        preview: args.preview.as_ref().map(|p| p.display().to_string()),
     };
     if args.json {
         out!("{}", serde_json::to_string(&report)?);
@@ -357,6 +383,63 @@ pub fn run(args: &LodArgs) -> Result<()> {
         print_text(&report);
     }
     Ok(())
+}
+
+/// Each level of a scene whose parts have chains (`(part, chain)`), flattened: a
+/// part shows its own level, or its coarsest when it has fewer; parts without a
+/// chain show themselves.
+fn scene_levels(scene: &Scene, chains: &[(usize, Chain)]) -> Vec<Mesh> {
+    let n = chains
+        .iter()
+        .map(|(_, c)| c.levels.len())
+        .max()
+        .unwrap_or(1);
+    (0..n)
+        .map(|k| {
+            let mut s = Scene {
+                parts: scene.parts.clone(),
+                ..Scene::default()
+            };
+            for (i, c) in chains {
+                if let (Some(part), Some(level)) =
+                    (s.parts.get_mut(*i), c.levels.get(k).or(c.levels.last()))
+                {
+                    part.mesh = level.mesh.clone();
+                }
+            }
+            s.flatten()
+        })
+        .collect()
+}
+
+/// `--preview`: the levels side by side, captioned with the report's rows.
+fn write_strip(path: &Path, levels: &[Mesh], rows: &[LevelRow]) -> Result<()> {
+    use crate::preview::{percent, thousands};
+    let diagonal = levels.first().map_or(0.0, Mesh::bbox_diagonal);
+    let panels: Vec<(&Mesh, Vec<String>)> = levels
+        .iter()
+        .zip(rows)
+        .map(|(m, r)| {
+            let mut second = format!("error {}", percent(r.error_max, diagonal));
+            match r.switch_distance {
+                _ if r.level == 0 => second = "the input".to_string(),
+                Some(d) => second.push_str(&format!(", switch {}", meshlod::render::sig3(d))),
+                None => {}
+            }
+            (
+                m,
+                vec![
+                    format!(
+                        "LOD{}  {} triangles",
+                        r.level,
+                        thousands(m.triangle_count())
+                    ),
+                    second,
+                ],
+            )
+        })
+        .collect();
+    crate::preview::write(path, &panels)
 }
 
 fn mesh_row(name: String, instances: usize, chain: &Chain) -> MeshRow {
@@ -445,6 +528,9 @@ fn print_text(r: &Report) {
         if let Some(why) = &m.stopped_early {
             out!("  stopped early: {why}");
         }
+    }
+    if let Some(p) = &r.preview {
+        out!("preview: {p} (the levels side by side)");
     }
     out!(
         "simplify {:.2} s, measure {:.2} s, total {:.2} s",

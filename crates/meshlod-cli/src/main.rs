@@ -18,15 +18,18 @@ macro_rules! out {
 
 mod dag;
 mod heatmap;
+mod impostor;
 mod info;
 mod lod;
 mod measure;
 mod memory;
 mod pm;
+mod preview;
 mod render;
 mod simplify;
 mod terrain;
 mod textures;
+mod view;
 
 use clap::{CommandFactory, FromArgMatches, Parser, Subcommand};
 use std::process::ExitCode;
@@ -70,6 +73,12 @@ enum Command {
     /// Draw meshes to a PNG picture: side by side, shaded, with an optional
     /// wireframe and a heat map of the distance to a reference.
     Render(Box<render::RenderArgs>),
+    /// Write a self-contained HTML page (WebGL, no network) to orbit the meshes,
+    /// switch levels, toggle the wireframe and a heat map.
+    View(Box<view::ViewArgs>),
+    /// Impostor for the farthest level: the object drawn from N directions into an
+    /// RGBA atlas (octahedral layout), written as a GLB quad textured with it.
+    Impostor(Box<impostor::ImpostorArgs>),
 }
 
 /// The error and its causes on one line, `: `-separated, each once: a cause whose
@@ -154,6 +163,8 @@ fn main() -> ExitCode {
         Command::Pm(cmd) => pm::run(&cmd),
         Command::Terrain(args) => terrain::run(&args),
         Command::Render(args) => render::run(&args),
+        Command::View(args) => view::run(&args),
+        Command::Impostor(args) => impostor::run(&args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -182,6 +182,7 @@ pub fn run(args: &RenderArgs) -> Result<()> {
             ShadingArg::Smooth => Shading::Smooth,
         },
         wireframe: args.wireframe,
+        caption_lines: 1,
     };
     let (panels, heatmap) = match &args.heatmap_vs {
         None => (draw_streaming(args, &opts)?, None),

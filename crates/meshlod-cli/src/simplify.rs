@@ -146,7 +146,7 @@ pub struct SimplifyArgs {
     // Vertex removal.
     /// vertex-removal: dihedral angle in degrees above which an edge is a feature
     /// (default 15).
-    #[arg(long, value_name = "DEG", help_heading = heading::VERTEX_REMOVAL)]
+    #[arg(long, value_name = "DEG", hide = true, help_heading = heading::TUNING_VERTEX_REMOVAL)]
     pub feature_angle: Option<f64>,
     /// vertex-removal: never remove corner vertices (one or more than two feature
     /// edges).
@@ -185,6 +185,11 @@ pub struct SimplifyArgs {
     /// --absolute) and `measure` (both directions, absolute units).
     #[arg(long, help_heading = heading::OUTPUT)]
     pub measure: bool,
+    /// Also write a PNG picture of the input and the output side by side (same
+    /// camera, iso view), captioned with their triangle counts and the error
+    /// (measured with --measure, else the simplifier's estimate).
+    #[arg(long, value_name = "OUT.png", help_heading = heading::OUTPUT)]
+    pub preview: Option<PathBuf>,
 
     // Tuning (hidden from --help; `--help-tuning`): edge collapse.
     /// Weight of the boundary constraint planes (default 10).
@@ -406,6 +411,9 @@ struct CliReport {
     /// Seconds of each step of the simplification (summed over a scene's parts):
     /// `build`, `decimate`, `output`, `refine`.
     phase_seconds: Steps,
+    /// The before/after picture written (with --preview).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    preview: Option<String>,
 }
 
 /// Progress bar on stderr, advanced by removed triangles.
@@ -726,11 +734,55 @@ pub fn run(args: &SimplifyArgs) -> Result<()> {
             &SamplingOptions::default(),
         )
     });
+    if let Some(p) = &args.preview {
+        preview(
+            args,
+            p,
+            &scene.flattened(),
+            &out_scene.flattened(),
+            &agg,
+            measure.as_ref(),
+        )?;
+    }
     let times = Times {
         read_seconds,
         write_seconds,
     };
     report(args, &opts, agg, measure, times, memory)
+}
+
+/// `--preview`: the input and the output side by side, captioned with their counts
+/// and the output's error (the measured Hausdorff distance, or the estimate).
+fn preview(
+    args: &SimplifyArgs,
+    path: &Path,
+    input: &meshlod::Mesh,
+    output: &meshlod::Mesh,
+    agg: &Aggregate,
+    measure: Option<&Distances>,
+) -> Result<()> {
+    use crate::preview::{file_name, percent, thousands};
+    let error = match measure {
+        Some(d) => format!("Hausdorff {}", percent(d.hausdorff, d.bbox_diagonal)),
+        None => format!("est. error {}", percent(agg.error_absolute, agg.diag)),
+    };
+    let panels = [
+        (
+            input,
+            vec![
+                format!("input {}", file_name(&args.input)),
+                format!("{} triangles", thousands(input.triangle_count())),
+            ],
+        ),
+        (
+            output,
+            vec![
+                format!("output {}", file_name(&args.output)),
+                format!("{} triangles, {error}", thousands(output.triangle_count())),
+            ],
+        ),
+    ];
+    crate::preview::write(path, &panels)
 }
 
 /// `--stream`: cluster the file without loading it (read twice), write, report.
@@ -746,17 +798,23 @@ fn run_stream(args: &SimplifyArgs, opts: &SimplifyOptions) -> Result<()> {
     let write_seconds = t1.elapsed().as_secs_f64();
     // The peak so far: reading is part of the run here.
     let memory = memory::rss().map(|r| MemoryReport::peak_only(r.peak));
-    // Measuring needs the input in memory.
-    let measure = if args.measure {
-        let input = read_scene(&args.input)?.flatten();
-        Some(metrics::hausdorff(
-            &input,
-            &s.mesh,
-            &SamplingOptions::default(),
-        ))
+    // Measuring and the preview need the input in memory.
+    let input = if args.measure || args.preview.is_some() {
+        Some(read_scene(&args.input)?.flatten())
     } else {
         None
     };
+    let measure = match (&input, args.measure) {
+        (Some(input), true) => Some(metrics::hausdorff(
+            input,
+            &s.mesh,
+            &SamplingOptions::default(),
+        )),
+        _ => None,
+    };
+    if let (Some(p), Some(input)) = (&args.preview, &input) {
+        preview(args, p, input, &s.mesh, &agg, measure.as_ref())?;
+    }
     let times = Times {
         read_seconds: 0.0,
         write_seconds,
@@ -896,6 +954,7 @@ fn report(
         cluster: agg.cluster,
         memory,
         phase_seconds: agg.phases,
+        preview: args.preview.as_ref().map(|p| p.display().to_string()),
     };
     if args.json {
         out!("{}", serde_json::to_string(&report)?);
@@ -1173,6 +1232,9 @@ fn print_text(r: &CliReport) {
             100.0 * d.rms / diag,
             d.a_to_b.samples + d.b_to_a.samples
         );
+    }
+    if let Some(p) = &r.preview {
+        out!("  preview      {p} (input and output side by side)");
     }
     let p = &r.phase_seconds;
     out!(

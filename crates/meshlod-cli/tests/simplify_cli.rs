@@ -722,6 +722,7 @@ fn simplify_help_shows_at_most_20_flags_and_hides_the_tuning_knobs() {
         "--count-tolerance",
         "--no-reshade-flat",
         "--placement",
+        "--feature-angle",
     ] {
         assert!(text.contains(tuning), "{tuning} missing from --help-tuning");
     }

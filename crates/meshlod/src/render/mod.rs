@@ -24,6 +24,11 @@
 //! - **Textures**: a base-colour [`Texture`] per material group, sampled bilinearly
 //!   at the interpolated UVs, lit like the untextured surface.
 //! - **Text**: captions and legend labels in an embedded 5×7 bitmap font ([`font`]).
+//! - **Viewer page** ([`viewer`]): the meshes and meshlod's own WebGL script in one
+//!   self-contained HTML file, drawing what this renderer draws, interactively.
+//! - **Impostors** ([`impostor`]): the object drawn from octahedrally mapped
+//!   directions into an RGBA atlas with alpha coverage, written as a textured GLB
+//!   quad (Maciel & Shirley 1995; Cigolle et al. 2014).
 //!
 //! ```
 //! use meshlod::render::{render, RenderOptions};
@@ -39,10 +44,12 @@
 mod camera;
 pub mod colormap;
 pub mod font;
+pub mod impostor;
 mod raster;
 #[cfg(test)]
 mod tests;
 mod texture;
+pub mod viewer;
 
 pub use camera::{Camera, View};
 pub use raster::{AMBIENT, BACK, FRONT, HEAT_AMBIENT, WIRE};
@@ -87,6 +94,9 @@ pub struct RenderOptions {
     pub shading: Shading,
     /// Overlay the triangles' edges. Default false.
     pub wireframe: bool,
+    /// Lines of text in each panel's caption strip (0: no captions, the panels use
+    /// the whole height). Default 1.
+    pub caption_lines: usize,
 }
 
 impl Default for RenderOptions {
@@ -97,6 +107,7 @@ impl Default for RenderOptions {
             view: View::Front,
             shading: Shading::Flat,
             wireframe: false,
+            caption_lines: 1,
         }
     }
 }
@@ -137,6 +148,9 @@ pub enum RenderError {
     /// A texture could not be decoded.
     #[error("texture: {0}")]
     Texture(String),
+    /// The viewer page's header could not be made.
+    #[error("HTML page: {0}")]
+    Page(String),
     /// PNG encoding or writing failed.
     #[error("PNG: {0}")]
     Png(#[from] png::EncodingError),
@@ -238,6 +252,9 @@ pub fn heat_values(mesh: &Mesh, reference: &Bvh) -> Vec<f32> {
         .collect()
 }
 
+/// Height of a caption line in font pixels (a glyph and two rows of spacing).
+const LINE_H: usize = font::GLYPH_H + 2;
+
 /// Where panels, captions and the legend go.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct Layout {
@@ -256,13 +273,17 @@ pub struct Layout {
 }
 
 impl Layout {
-    fn new(width: usize, height: usize, panels: usize, legend: bool) -> Self {
+    fn new(width: usize, height: usize, panels: usize, lines: usize, legend: bool) -> Self {
         let font_scale = if height >= 360 && width / panels >= 240 {
             2
         } else {
             1
         };
-        let mut caption_height = 11 * font_scale;
+        let mut caption_height = if lines == 0 {
+            0
+        } else {
+            (2 + LINE_H * lines) * font_scale
+        };
         let mut legend_height = if legend { 24 * font_scale } else { 0 };
         if height < 2 * (caption_height + legend_height) {
             caption_height = 0;
@@ -320,7 +341,13 @@ impl Canvas {
         if panels == 0 || panels > width as usize {
             return Err(RenderError::Panels { panels, width });
         }
-        let layout = Layout::new(width as usize, height as usize, panels, heat.is_some());
+        let layout = Layout::new(
+            width as usize,
+            height as usize,
+            panels,
+            opts.caption_lines,
+            heat.is_some(),
+        );
         let camera = Camera::frame(
             &opts.view,
             frame.0,
@@ -381,6 +408,24 @@ impl Canvas {
         textures: &[Option<Texture>],
         label: &str,
     ) -> Result<PanelStats, RenderError> {
+        let caption = format!("{label}  {} triangles", mesh.triangle_count());
+        self.draw_captioned(panel, mesh, values, textures, &[caption])
+    }
+
+    /// As [`Canvas::draw_with`], with the caption's lines given: one per line of
+    /// [`RenderOptions::caption_lines`] (extra lines are not drawn), each centred
+    /// and cut at the left with `...` when too wide.
+    ///
+    /// # Errors
+    /// As [`Canvas::draw`].
+    pub fn draw_captioned(
+        &mut self,
+        panel: usize,
+        mesh: &Mesh,
+        values: Option<&[f32]>,
+        textures: &[Option<Texture>],
+        caption: &[String],
+    ) -> Result<PanelStats, RenderError> {
         if panel >= self.layout.panels {
             return Err(RenderError::Panels {
                 panels: panel + 1,
@@ -437,10 +482,9 @@ impl Canvas {
             forward: fwd,
         };
         let covered = self.compose(panel, &buf, &shade);
-        self.caption(
-            panel,
-            &format!("{label}  {} triangles", mesh.triangle_count()),
-        );
+        for (line, text) in caption.iter().take(self.opts.caption_lines).enumerate() {
+            self.caption(panel, line, text);
+        }
         Ok(PanelStats {
             triangles: mesh.triangle_count(),
             covered_pixels: covered,
@@ -474,9 +518,9 @@ impl Canvas {
             .sum()
     }
 
-    /// Writes `text` centred in panel `panel`'s caption strip, cut at the left with
-    /// `...` when it is too wide.
-    fn caption(&mut self, panel: usize, text: &str) {
+    /// Writes `text` centred on line `line` of panel `panel`'s caption strip, cut at
+    /// the left with `...` when it is too wide.
+    fn caption(&mut self, panel: usize, line: usize, text: &str) {
         let l = self.layout;
         if l.caption_height == 0 {
             return;
@@ -484,7 +528,7 @@ impl Canvas {
         let text = fit_text(text, l.panel_width.saturating_sub(4), l.font_scale);
         let tw = font::text_width(&text, l.font_scale);
         let x = panel * l.panel_width + (l.panel_width.saturating_sub(tw)) / 2;
-        let y = l.view_height + 2 * l.font_scale;
+        let y = l.view_height + (2 + LINE_H * line) * l.font_scale;
         font::draw_text(&mut self.image, x, y, &text, l.font_scale, TEXT);
     }
 

@@ -409,6 +409,7 @@ proptest! {
             view,
             wireframe: wire,
             shading: if smooth { Shading::Smooth } else { Shading::Flat },
+            caption_lines: 1,
         };
         let img = render(&[(&m, "m")], &o).unwrap();
         prop_assert_eq!(img.pixels.len(), (w * h) as usize);

@@ -312,7 +312,9 @@ pub fn color_array<'py>(
 ) -> PyResult<Bound<'py, PyAny>> {
     let n = rgba.len();
     let flat: Vec<f32> = if cols == 3 {
-        rgba.into_iter().flat_map(|[r, g, b, _]| [r, g, b]).collect()
+        rgba.into_iter()
+            .flat_map(|[r, g, b, _]| [r, g, b])
+            .collect()
     } else {
         rgba.into_flattened()
     };
@@ -348,10 +350,7 @@ pub fn json_to_py<'py>(py: Python<'py>, value: &serde_json::Value) -> PyResult<B
             } else if let Some(i) = n.as_i64() {
                 i.into_pyobject(py)?.into_any()
             } else {
-                n.as_f64()
-                    .unwrap_or(f64::NAN)
-                    .into_pyobject(py)?
-                    .into_any()
+                n.as_f64().unwrap_or(f64::NAN).into_pyobject(py)?.into_any()
             }
         }
         Value::String(s) => s.into_pyobject(py)?.into_any(),
@@ -374,8 +373,8 @@ pub fn json_to_py<'py>(py: Python<'py>, value: &serde_json::Value) -> PyResult<B
 
 /// A serialisable report as a Python `dict` (through [`json_to_py`]).
 pub fn report<'py>(py: Python<'py>, report: &impl serde::Serialize) -> PyResult<Bound<'py, PyAny>> {
-    let value = serde_json::to_value(report)
-        .map_err(|e| PyValueError::new_err(format!("report: {e}")))?;
+    let value =
+        serde_json::to_value(report).map_err(|e| PyValueError::new_err(format!("report: {e}")))?;
     json_to_py(py, &value)
 }
 
@@ -407,7 +406,10 @@ pub fn index_array_1d<'py>(
 /// A 2-D `float32`/`float64` grid (rows first) as row-major `f32` values, with its
 /// width. NaN and infinity are voids (filled by the height field); `float64`
 /// heights beyond `float32`'s range are refused.
-pub fn float_grid(array: &Bound<'_, PyUntypedArray>, name: &str) -> PyResult<(Vec<f32>, FloatKind)> {
+pub fn float_grid(
+    array: &Bound<'_, PyUntypedArray>,
+    name: &str,
+) -> PyResult<(Vec<f32>, FloatKind)> {
     fn flat<T: Element + Copy>(
         array: &Bound<'_, PyUntypedArray>,
         f: impl FnMut(T) -> f32,

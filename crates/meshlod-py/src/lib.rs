@@ -177,7 +177,9 @@ fn attribute_dict<'py>(
         d.set_item("uvs", convert::float_array(py, uv, k)?)?;
     }
     if let Some(c) = attributes.colors {
-        let (k, cols) = kinds.colors.unwrap_or((ColorKind::Float(FloatKind::F32), 4));
+        let (k, cols) = kinds
+            .colors
+            .unwrap_or((ColorKind::Float(FloatKind::F32), 4));
         d.set_item("colors", convert::color_array(py, c, k, cols)?)?;
     }
     Ok(d)
@@ -312,9 +314,8 @@ fn simplify<'py>(
         .detach(|| {
             in_pool(threads, || {
                 simplify_observed(&mesh, &opts, &mut meshlod::decimate::NoObserver).map(|s| {
-                    let d = measure.then(|| {
-                        metrics::hausdorff(&mesh, &s.mesh, &SamplingOptions::default())
-                    });
+                    let d = measure
+                        .then(|| metrics::hausdorff(&mesh, &s.mesh, &SamplingOptions::default()));
                     (s, d)
                 })
             })
@@ -718,12 +719,7 @@ fn terrain<'py>(
                 let seconds = start.elapsed().as_secs_f64();
                 let t = Instant::now();
                 let dev = measure_tin(&tin, &hf.heights, hf.width);
-                Ok::<_, meshlod::terrain::TinError>((
-                    tin,
-                    seconds,
-                    dev,
-                    t.elapsed().as_secs_f64(),
-                ))
+                Ok::<_, meshlod::terrain::TinError>((tin, seconds, dev, t.elapsed().as_secs_f64()))
             })
         })
         .map_err(value_error)?

@@ -43,7 +43,6 @@ mod heading {
     pub const TARGET: &str = "Target";
     pub const METHOD: &str = "Method";
     pub const QEM: &str = "QEM (--method qem)";
-    pub const VERTEX_REMOVAL: &str = "Vertex removal (--method vertex-removal)";
     pub const CLUSTER: &str = "Clustering (--method cluster)";
     pub const OUTPUT: &str = "Output";
     pub const TUNING_QEM: &str = "Tuning: edge collapse (qem, melax)";

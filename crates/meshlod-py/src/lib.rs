@@ -397,6 +397,8 @@ struct Relative {
 struct MeasureReport {
     units: &'static str,
     hausdorff: f64,
+    max_lower: f64,
+    max_upper: Option<f64>,
     mean: f64,
     rms: f64,
     a_to_b: OneSided,
@@ -457,6 +459,8 @@ fn measure<'py>(
     let report = MeasureReport {
         units: "mesh units",
         hausdorff: d.hausdorff,
+        max_lower: d.hausdorff,
+        max_upper: d.hausdorff_upper,
         mean: d.mean,
         rms: d.rms,
         a_to_b: d.a_to_b,

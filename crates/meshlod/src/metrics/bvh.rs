@@ -372,6 +372,14 @@ impl Bvh {
         (i > 0 && i < prims.len()).then_some(i)
     }
 
+    /// The corners of mesh triangle `triangle`, or `None` when it is not indexed.
+    #[must_use]
+    pub fn corners(&self, triangle: u32) -> Option<[V3; 3]> {
+        let slot = *self.slot_of.get(triangle as usize)? as usize;
+        let t = self.tris.get(slot)?;
+        Some(t.map(|p| [f64::from(p[0]), f64::from(p[1]), f64::from(p[2])]))
+    }
+
     /// Number of triangles indexed.
     #[must_use]
     pub fn len(&self) -> usize {

@@ -15,11 +15,16 @@
 //! edge samples are evenly spaced along each edge. The same inputs and seed give the
 //! same numbers, whatever the number of threads.
 //!
+//! The sampled maximum is a lower bound of the true one; [`certify`] then refines
+//! around the largest distances until an upper bound is within 0.4% of it, so each
+//! direction reports an interval `[max, max_upper]` holding the truth.
+//!
 //! The screen-space error of a geometric error `ε` seen at distance `d` with a vertical
 //! field of view `θ` on a screen `x` pixels high is `p = ε x / (2 d tan(θ/2))`
 //! ([`screen_space_error`]).
 
 pub mod bvh;
+pub mod certify;
 pub mod triangle;
 
 use crate::mesh::{Mesh, Topology, Weld};
@@ -42,6 +47,11 @@ pub struct SamplingOptions {
     pub faces: bool,
     /// Seed of the face sample placement. Default: 0.
     pub seed: u64,
+    /// Certify the maximum ([`certify`]): refine around the largest distances until the
+    /// maximum is within [`certify::TOLERANCE`] of an upper bound, spending at most
+    /// about as many closest-point queries again as the sampling (at least
+    /// [`certify::MIN_BUDGET`]). Default: true.
+    pub certify: bool,
 }
 
 impl Default for SamplingOptions {
@@ -52,6 +62,7 @@ impl Default for SamplingOptions {
             edges: true,
             faces: true,
             seed: 0,
+            certify: true,
         }
     }
 }
@@ -73,10 +84,19 @@ impl SamplingOptions {
 }
 
 /// One direction of the distance: samples of one mesh against the other surface.
+///
+/// Serialized with its fields and `max_lower` (the same value as `max`), so a report
+/// names both ends of the certified interval `[max_lower, max_upper]`.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+#[serde(into = "OneSidedReport")]
 pub struct OneSided {
-    /// Largest sample distance, in mesh units.
+    /// Largest sample distance, in mesh units (with [`SamplingOptions::certify`], the
+    /// largest after refinement: a lower bound of the true maximum).
     pub max: f64,
+    /// With [`SamplingOptions::certify`], an upper bound of the true maximum (mesh
+    /// units): the maximum lies in `[max, max_upper]`. `None` without certification;
+    /// infinite when the other mesh is empty.
+    pub max_upper: Option<f64>,
     /// Mean sample distance.
     pub mean: f64,
     /// Root mean square sample distance.
@@ -89,6 +109,34 @@ pub struct OneSided {
     pub samples: u64,
 }
 
+/// The serialized form of [`OneSided`].
+#[derive(Serialize)]
+struct OneSidedReport {
+    max: f64,
+    max_lower: f64,
+    max_upper: Option<f64>,
+    mean: f64,
+    rms: f64,
+    max_at: [f64; 3],
+    max_closest: [f64; 3],
+    samples: u64,
+}
+
+impl From<OneSided> for OneSidedReport {
+    fn from(o: OneSided) -> Self {
+        Self {
+            max: o.max,
+            max_lower: o.max,
+            max_upper: o.max_upper,
+            mean: o.mean,
+            rms: o.rms,
+            max_at: o.max_at,
+            max_closest: o.max_closest,
+            samples: o.samples,
+        }
+    }
+}
+
 /// Both directions and the symmetric summary, in absolute units with the scales needed
 /// to make them relative.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
@@ -99,6 +147,8 @@ pub struct Distances {
     pub b_to_a: OneSided,
     /// Symmetric Hausdorff distance `max(h(A,B), h(B,A))`.
     pub hausdorff: f64,
+    /// Upper bound of the symmetric Hausdorff distance, when both sides are certified.
+    pub hausdorff_upper: Option<f64>,
     /// Symmetric mean: the larger of the two one-sided means (as the peers harness).
     pub mean: f64,
     /// Symmetric RMS: the larger of the two one-sided RMS values.
@@ -118,12 +168,14 @@ impl Distances {
             max: o.max * s,
             mean: o.mean * s,
             rms: o.rms * s,
+            max_upper: o.max_upper.map(|u| u * s),
             ..*o
         };
         Self {
             a_to_b: one(&self.a_to_b),
             b_to_a: one(&self.b_to_a),
             hausdorff: self.hausdorff * s,
+            hausdorff_upper: self.hausdorff_upper.map(|u| u * s),
             mean: self.mean * s,
             rms: self.rms * s,
             ..*self
@@ -150,6 +202,10 @@ pub fn hausdorff(a: &Mesh, b: &Mesh, options: &SamplingOptions) -> Distances {
     };
     Distances {
         hausdorff: a_to_b.max.max(b_to_a.max),
+        hausdorff_upper: a_to_b
+            .max_upper
+            .zip(b_to_a.max_upper)
+            .map(|(x, y)| x.max(y)),
         mean: a_to_b.mean.max(b_to_a.mean),
         rms: a_to_b.rms.max(b_to_a.rms),
         a_to_b,
@@ -413,6 +469,7 @@ pub fn one_sided(mesh: &Mesh, target: &Bvh, options: &SamplingOptions) -> OneSid
     if total.n == 0 {
         return OneSided {
             max: 0.0,
+            max_upper: options.certify.then_some(0.0),
             mean: 0.0,
             rms: 0.0,
             max_at: [0.0; 3],
@@ -420,14 +477,32 @@ pub fn one_sided(mesh: &Mesh, target: &Bvh, options: &SamplingOptions) -> OneSid
             samples: 0,
         };
     }
-    OneSided {
+    let mut out = OneSided {
         max: total.max2.max(0.0).sqrt(),
+        max_upper: None,
         mean: total.sum / total.n as f64,
         rms: (total.sum2 / total.n as f64).sqrt(),
         max_at: total.max_at,
         max_closest: total.max_closest,
         samples: total.n,
+    };
+    if options.certify {
+        let tris: Vec<[V3; 3]> = points
+            .iter()
+            .map(|t| [pos(t[0]), pos(t[1]), pos(t[2])])
+            .collect();
+        let c = certify::certify(
+            &tris,
+            target,
+            out.max,
+            (out.max_at, out.max_closest),
+            (n as u64).max(certify::MIN_BUDGET),
+        );
+        out.max = c.lower;
+        (out.max_at, out.max_closest) = c.lower_at;
+        out.max_upper = Some(c.upper);
     }
+    out
 }
 
 /// Pixels covered by a geometric error `error` seen at `distance` (same units) with a

@@ -148,3 +148,116 @@ fn allot_sums_exactly() {
     assert_eq!(c[2], 0);
     assert!((i64::from(c[3]) - 530).abs() <= 1);
 }
+
+/// An acute triangle `A` and three slivers of `B` pointing outward from its corners:
+///
+/// ```text
+///            ╱▲╲ (0.4, 0.9)
+///           ╱ · ╲          · = circumcentre c, at distance R from every corner
+///   ◁(0,0) ─────── (1,0)▷  ◁ ▷ ▲ = B's slivers, one corner on each corner of A
+/// ```
+///
+/// Every point of `A` is at most `R` from some corner, and `c` is exactly `R` from
+/// `B` (each sliver lies beyond its corner as seen from `c`), so `h(A, B) = R`, reached
+/// only at `c`: an interior point that a few samples miss.
+fn circumcentre_case() -> (Mesh, Mesh, f64) {
+    let v: [[f64; 3]; 3] = [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.4, 0.9, 0.0]];
+    // Circumcentre of a triangle with a corner at the origin, in the plane z = 0.
+    let (bx, by, cx, cy) = (v[1][0], v[1][1], v[2][0], v[2][1]);
+    let d = 2.0 * (bx * cy - by * cx);
+    let ux = (cy * (bx * bx + by * by) - by * (cx * cx + cy * cy)) / d;
+    let uy = (bx * (cx * cx + cy * cy) - cx * (bx * bx + by * by)) / d;
+    let r = (ux * ux + uy * uy).sqrt();
+    let a = Mesh::from_triangles(
+        v.iter().map(|p| p.map(|x| x as f32)).collect(),
+        vec![[0, 1, 2]],
+    );
+    let (mut p, mut t) = (Vec::new(), Vec::new());
+    for corner in v {
+        let (dx, dy) = (corner[0] - ux, corner[1] - uy);
+        let n = (dx * dx + dy * dy).sqrt();
+        let (ox, oy) = (dx / n, dy / n); // outward
+        let (wx, wy) = (-oy, ox);
+        let s = 0.05;
+        let k = p.len() as u32;
+        p.push([corner[0] as f32, corner[1] as f32, 0.0]);
+        for side in [1.0, -1.0] {
+            p.push([
+                (corner[0] + s * ox + side * 0.3 * s * wx) as f32,
+                (corner[1] + s * oy + side * 0.3 * s * wy) as f32,
+                0.0,
+            ]);
+        }
+        t.push([k, k + 1, k + 2]);
+    }
+    (a, Mesh::from_triangles(p, t), r)
+}
+
+#[test]
+fn certified_maximum_finds_the_point_between_samples() {
+    let (a, b, r) = circumcentre_case();
+    let target = Bvh::build(&b.positions, &b.triangles);
+    let few = SamplingOptions {
+        certify: false,
+        ..opts(20)
+    };
+    let sampled = one_sided(&a, &target, &few);
+    // The samples alone miss the circumcentre by more than the tolerance (else this
+    // case would not test the refinement).
+    assert!(
+        sampled.max < r * (1.0 - 2.0 * certify::TOLERANCE),
+        "{sampled:?} vs {r}"
+    );
+    assert_eq!(sampled.max_upper, None);
+
+    let c = one_sided(&a, &target, &opts(20));
+    let upper = c.max_upper.expect("certified");
+    // f32 positions: allow rounding at 1e-6.
+    assert!(c.max <= r + 1e-6, "lower {} above the truth {r}", c.max);
+    assert!(upper >= r - 1e-6, "upper {upper} below the truth {r}");
+    assert!(upper <= c.max * (1.0 + certify::TOLERANCE) + 1e-9, "{c:?}");
+    assert!(c.max >= r * (1.0 - certify::TOLERANCE), "{} vs {r}", c.max);
+    // The reported point is where the distance was found.
+    let at = c.max_at;
+    let dc = ((at[0] - c.max_closest[0]).powi(2)
+        + (at[1] - c.max_closest[1]).powi(2)
+        + (at[2] - c.max_closest[2]).powi(2))
+    .sqrt();
+    assert!((dc - c.max).abs() < 1e-9, "{dc} vs {}", c.max);
+}
+
+#[test]
+fn certified_interval_holds_the_analytic_maxima() {
+    // Offset planes: exact everywhere, so the interval closes on 0.25.
+    let d = hausdorff(&grid(8, 0.0), &grid(5, 0.25), &opts(2_000));
+    let up = d.hausdorff_upper.expect("certified");
+    assert!(
+        (d.hausdorff - 0.25).abs() < 1e-7 && up >= 0.25 - 1e-7,
+        "{d:?}"
+    );
+    assert!(up <= 0.25 * (1.0 + certify::TOLERANCE) + 1e-7, "{d:?}");
+
+    // Icosahedron against its sphere with few samples: the gap at the face centres
+    // lies in [max, max_upper] both ways, up to the faceted sphere's departure from
+    // the true one (1e-4, as in the sampled test above).
+    let r_in =
+        (3f64.sqrt() / 12.0 * (3.0 + 5f64.sqrt())) / ((10.0 + 2.0 * 5f64.sqrt()).sqrt() / 4.0);
+    let gap = 1.0 - r_in;
+    let d = hausdorff(&icosphere(0), &icosphere(6), &opts(500));
+    for one in [d.a_to_b, d.b_to_a] {
+        let up = one.max_upper.expect("certified");
+        assert!(
+            one.max <= gap + 1e-4 && up >= gap - 1e-4,
+            "{one:?} vs {gap}"
+        );
+        assert!(up <= one.max * (1.0 + certify::TOLERANCE) + 1e-9, "{one:?}");
+    }
+    assert!(d.hausdorff_upper.unwrap() >= d.hausdorff);
+}
+
+#[test]
+fn certified_maximum_against_an_empty_mesh_is_unbounded() {
+    let d = hausdorff(&cube(1.0), &Mesh::default(), &opts(100));
+    assert_eq!(d.a_to_b.max_upper, Some(f64::INFINITY));
+    assert_eq!(d.b_to_a.max_upper, Some(0.0));
+}

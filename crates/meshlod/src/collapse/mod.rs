@@ -9,7 +9,10 @@
 //!   only slides along its border (collapses along a border edge, onto a border,
 //!   complex or locked vertex); an attribute-seam or material-border vertex only
 //!   along its seam; complex (non-manifold input) and locked vertices never move and
-//!   are never removed, other vertices may only be merged *onto* them — except, when
+//!   are never removed, other vertices may only be merged *onto* them — except
+//!   points inside a non-manifold chain when asked
+//!   ([`BuildOptions::move_non_manifold`]), which slide along the chain as border
+//!   points slide along their border (one triangle of every sheet dies), and, when
 //!   asked ([`BuildOptions::move_junctions`]), a seam junction (one fan, complex only
 //!   through its seam edges), which may be removed along one of its seam edges (its
 //!   border edges when on a border), its wedges off that edge carried to the
@@ -41,7 +44,7 @@ pub(crate) use surface::FanCsr;
 
 pub(crate) use surface::canonical_wedges;
 pub(crate) use surface::closest_on_triangle;
-pub use surface::{BuildOptions, Repair, Surface, DEAD};
+pub use surface::{BuildOptions, NonManifoldPoints, Repair, Surface, DEAD, MAX_SHEETS};
 
 use crate::mesh::VertexKind;
 
@@ -109,8 +112,12 @@ pub struct CollapseRecord {
     /// Position of `kept` after the collapse (equal to `kept_old_position` for a
     /// half-edge collapse onto `kept`).
     pub position: [f32; 3],
-    /// Triangles removed by the collapse ([`DEAD`] where fewer than two).
+    /// Triangles removed by the collapse ([`DEAD`] where fewer than two; the first
+    /// two along a non-manifold edge, which removes one per sheet).
     pub removed_triangles: [u32; 2],
+    /// How many triangles the collapse removed (two inside a surface, one on a
+    /// border, one per sheet along a non-manifold edge, 0 for a non-edge pair).
+    pub removed_count: u32,
     /// The apex of each removed triangle (Hoppe's `vl`, `vr`; [`DEAD`] where none).
     pub apexes: [u32; 2],
     /// Whether it was a non-edge pair contraction.

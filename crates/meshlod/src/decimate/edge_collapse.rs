@@ -617,11 +617,24 @@ fn no_legal_collapse_detail(surface: &Surface, r: &Rejections) -> String {
             }
         }
     }
+    let (components, border) = surface.components_and_border_points();
+    let nm = surface.non_manifold_census();
     format!(
         "no legal collapse left: {fixed} of the {live} points left may not move \
          (seam or material-border junctions, non-manifold or locked points); \
+         the surface keeps its {components} components (no part is collapsed away), \
+         {border} border points (holes are not closed) and {} non-manifold points \
+         ({} chain corners, {} on a border, {} on a seam, {} irregular, {} pinches, \
+         {} chain points); \
          rejected so far: link {}, fold-over {}, degenerate {}, duplicate {}, \
          seam {}, kind {}, non-manifold edge {}, filters {}",
+        nm.total,
+        nm.corner,
+        nm.border,
+        nm.seam,
+        nm.irregular,
+        nm.pinch,
+        nm.chain,
         r.link,
         r.fold_over,
         r.degenerate,

@@ -364,9 +364,9 @@ impl WedgeQuadrics {
                 continue;
             }
             let mut m = 0;
-            for i in 0..n {
+            for (i, &id) in ids[..n].iter().enumerate() {
                 if root(&parent, i) == r {
-                    members[m] = ids[i];
+                    members[m] = id;
                     m += 1;
                 }
             }

@@ -53,7 +53,9 @@ use crate::mesh::VertexKind;
 pub enum Reject {
     /// A vertex is dead, the two ids are equal, or a locked/complex vertex would move.
     Kind,
-    /// The edge has more than two triangles (non-manifold input edge).
+    /// A non-manifold edge that may not be collapsed: more triangles on it than
+    /// [`MAX_SHEETS`], or (by the driver) a collapse along it that would remove
+    /// more triangles than the target leaves room for.
     NonManifoldEdge,
     /// The link condition fails: the merge would pinch the surface, close a hole,
     /// glue two boundary vertices across an interior edge, or make a point vanish
@@ -195,6 +197,9 @@ pub struct Preview {
     pub touches_boundary: bool,
     /// Whether the pair is an edge.
     pub edge: bool,
+    /// How many triangles the collapse removes (two inside a surface, one on a
+    /// border, one per sheet along a non-manifold edge, 0 for a non-edge pair).
+    pub dying: usize,
 }
 
 /// True when a point of this kind may be removed or moved.

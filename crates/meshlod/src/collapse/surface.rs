@@ -1368,6 +1368,7 @@ impl Surface {
         preview.changed = changed;
         let dying = r?;
         preview.edge = dying > 0;
+        preview.dying = dying;
         Ok(())
     }
 

@@ -786,6 +786,18 @@ fn run_impl<C: CostModel + ?Sized>(
             d.check_rejected(e, &m, r, &mut out.rejections, &mut parked);
             continue;
         }
+        // A collapse along a non-manifold edge removes one triangle per sheet: not
+        // one that would land further below the target than a plain collapse may
+        // (1% of it, or one triangle).
+        if preview.dying > 2 {
+            let slack = stop.target_triangles.div_ceil(100).max(1);
+            let left = d.surface.live_triangles().saturating_sub(preview.dying);
+            if left + slack < stop.target_triangles {
+                let r = Reject::NonManifoldEdge;
+                d.check_rejected(e, &m, r, &mut out.rejections, &mut parked);
+                continue;
+            }
+        }
         d.prefetch_after_check(&preview);
         let Some(exact) = d.screen(e, &c, &preview, &mut out.rejections, &mut parked) else {
             continue;

@@ -124,7 +124,7 @@ fn assert_sheets_intact(out: &Mesh, dirs: &[[f64; 3]; 3]) {
 }
 
 /// Three sheets on a chain of 16 edges: QEM reaches 10% and 5% of the 576
-/// triangles (a collapse along the chain removes three, so within two), the chain
+/// triangles within 1% (a collapse along the chain removes three), the chain
 /// slides along itself (only its two ends, corners where it meets the sheets'
 /// borders, are kept), nothing tears, joins or flips, and no non-manifold edge is
 /// made.
@@ -139,7 +139,7 @@ fn three_sheets_simplify_along_their_chain() {
         let t = report.target_triangles;
         assert_eq!(report.stop_reason, StopReason::TargetReached, "{ratio}");
         assert!(
-            out.triangles.len() <= t && out.triangles.len() + 2 >= t,
+            out.triangles.len() <= t && out.triangles.len() + t.div_ceil(100).max(1) >= t,
             "{} triangles for {t}",
             out.triangles.len()
         );
@@ -247,4 +247,65 @@ fn duplicate_triangles_are_removed_and_counted() {
     assert_eq!(report.duplicate_removed, copies);
     assert_eq!(report.stop_reason, StopReason::TargetReached);
     assert_sheets_intact(&out, &dirs);
+}
+
+/// Sheets on a chain with random extra fins glued onto sheet edges, random
+/// duplicate copies and random heights: any run keeps the invariants (no new
+/// non-manifold or boundary edge, no duplicate or degenerate triangle, the target
+/// reached or the stop explained) and never panics.
+mod random {
+    use super::*;
+    use proptest::prelude::*;
+
+    fn fins() -> impl Strategy<Value = Mesh> {
+        (
+            3u32..10,
+            1u32..4,
+            prop::collection::vec((0usize..1000, -1.0f32..1.0), 0..12),
+            prop::collection::vec(0usize..1000, 0..6),
+            prop::collection::vec(-0.3f32..0.3, 64),
+        )
+            .prop_map(|(n, m, extra, dups, bumps)| {
+                let (mut mesh, _) = three_sheets(n, m);
+                for (i, p) in mesh.positions.iter_mut().enumerate() {
+                    if p[1] != 0.0 || p[2] != 0.0 {
+                        p[0] += bumps[i % bumps.len()] * 0.5;
+                    }
+                }
+                // A fin on an edge of an existing triangle: that edge gets one more
+                // triangle (non-manifold where it had two).
+                for (t, h) in extra {
+                    let tri = mesh.triangles[t % mesh.triangles.len()];
+                    let [a, b] = [tri[0], tri[1]];
+                    let (pa, pb) = (mesh.positions[a as usize], mesh.positions[b as usize]);
+                    let apex = [
+                        0.5 * (pa[0] + pb[0]),
+                        0.5 * (pa[1] + pb[1]) + h,
+                        0.5 * (pa[2] + pb[2]) + 0.7,
+                    ];
+                    mesh.positions.push(apex);
+                    let c = mesh.positions.len() as u32 - 1;
+                    mesh.triangles.push([a, b, c]);
+                }
+                for d in dups {
+                    let t = mesh.triangles[d % mesh.triangles.len()];
+                    mesh.triangles.push([t[0], t[2], t[1]]);
+                }
+                mesh
+            })
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(64))]
+        #[test]
+        fn random_fins_keep_invariants(
+            m in fins(),
+            ratio in prop::sample::select(vec![0.5, 0.1, 0.01]),
+        ) {
+            let (out, report) = simplify(&m, &SimplifyOptions::default().with_ratio(ratio)).unwrap();
+            super::super::tests::check_invariants(&m, &out, &report);
+            let kept = report.non_manifold_kept.unwrap();
+            prop_assert!(kept.total <= report.non_manifold_points_in.unwrap());
+        }
+    }
 }

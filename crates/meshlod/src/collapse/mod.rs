@@ -24,7 +24,10 @@
 //!   neighbourhood stays manifold, no boundary edge and no non-manifold edge is
 //!   created and no hole is closed; and no point loses its last triangle, so no
 //!   small component is collapsed away;
-//! - **no duplicate triangles** (the tetrahedron case the link condition misses);
+//!   along a non-manifold edge the apexes are one per sheet, and the checks below
+//!   run over every sheet around the two points;
+//! - **no duplicate triangles** (the tetrahedron case the link condition misses;
+//!   along a non-manifold edge, checked for every pair of apexes);
 //! - **seams**: the wedges (attribute vertices) of `u` map onto wedges of `v`
 //!   consistently on each side of a seam (a junction's or a crossing point's other
 //!   wedges move to `v` whole);

@@ -24,7 +24,7 @@
 use crate::memory::{self, MemoryReport, Phases};
 use anyhow::{bail, Context, Result};
 use indicatif::{ProgressBar, ProgressStyle};
-use meshlod::collapse::CollapseRecord;
+use meshlod::collapse::{CollapseRecord, NonManifoldPoints};
 use meshlod::decimate::cluster::{ClusterOptions, ClusterStats, Representative};
 use meshlod::decimate::Observer;
 use meshlod::io::{read_scene, write_scene, Format, Scene, WriteOptions};
@@ -372,6 +372,12 @@ struct CliReport {
     non_edge_contractions: usize,
     degenerate_removed: usize,
     duplicate_removed: usize,
+    /// Non-manifold points of the input after the repair (not clustering).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    non_manifold_points_in: Option<usize>,
+    /// Non-manifold points of the output by why they stayed (qem, melax).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    non_manifold_kept: Option<NonManifoldPoints>,
     /// Diagonal swaps of the orientation repair (qem, melax).
     facing_flips: usize,
     /// Times pairs rejected earlier were queued again once the queue's cost had
@@ -934,6 +940,8 @@ fn report(
         non_edge_contractions: agg.non_edge,
         degenerate_removed: agg.degenerate,
         duplicate_removed: agg.duplicate,
+        non_manifold_points_in: agg.nm_in,
+        non_manifold_kept: agg.nm_kept,
         facing_flips: agg.facing_flips,
         retries: agg.retries,
         fit_moved: agg.fit_moved,
@@ -987,6 +995,8 @@ struct Aggregate {
     flat_shading: bool,
     facing_away: Option<[usize; 2]>,
     cluster: Option<ClusterStats>,
+    nm_in: Option<usize>,
+    nm_kept: Option<NonManifoldPoints>,
     phases: Steps,
 }
 
@@ -1016,6 +1026,8 @@ impl Aggregate {
             flat_shading: false,
             facing_away: None,
             cluster: None,
+            nm_in: None,
+            nm_kept: None,
             phases: Steps::default(),
         }
     }
@@ -1052,6 +1064,14 @@ impl Aggregate {
         self.fit_moved += r.fit_moved;
         self.edge_swaps += r.edge_swaps;
         self.flat_shading |= r.flat_shading;
+        if let Some(n) = r.non_manifold_points_in {
+            *self.nm_in.get_or_insert(0) += instances * n;
+        }
+        if let Some(k) = &r.non_manifold_kept {
+            self.nm_kept
+                .get_or_insert_with(NonManifoldPoints::default)
+                .add(k, instances);
+        }
         if let Some([b, a]) = r.facing_away {
             let [sb, sa] = self.facing_away.get_or_insert([0, 0]);
             *sb += b;
@@ -1201,6 +1221,22 @@ fn print_text(r: &CliReport) {
         r.degenerate_removed,
         r.duplicate_removed
     );
+    if let (Some(n), Some(k)) = (r.non_manifold_points_in, &r.non_manifold_kept) {
+        if n > 0 || k.total > 0 {
+            out!(
+                "  non-manifold {} points in, {} kept: {} corners, {} on a border, {} on a seam, \
+                 {} irregular, {} pinches, {} chain points",
+                n,
+                k.total,
+                k.corner,
+                k.border,
+                k.seam,
+                k.irregular,
+                k.pinch,
+                k.chain
+            );
+        }
+    }
     if let Some([before, after]) = r.facing_away {
         out!(
             "  orientation  {before} triangles facing away from the input, {after} after {} diagonal swaps",

@@ -690,6 +690,16 @@ pub struct Report {
     pub degenerate_removed: usize,
     /// Duplicate input triangles removed by the up-front repair.
     pub duplicate_removed: usize,
+    /// Non-manifold points (on an edge of more than two triangles, or where
+    /// several fans touch) of the input after the repair; `None` for clustering.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub non_manifold_points_in: Option<usize>,
+    /// Non-manifold points of the output, by why they stayed (QEM slides the
+    /// points inside a non-manifold chain along it; the corners of the chain
+    /// network, chains on a border or seam, and pinches are kept); `None` for
+    /// vertex removal and clustering.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub non_manifold_kept: Option<crate::collapse::NonManifoldPoints>,
     /// Rejected candidates by reason.
     pub rejections: Rejections,
     /// Full re-scans after the queue ran dry.
@@ -825,6 +835,7 @@ pub fn simplify_observed(
         repair,
         diag,
         mut phases,
+        census,
     } = d;
     let t_refine = Instant::now();
     let (fitted, facing) = refine(
@@ -838,7 +849,7 @@ pub fn simplify_observed(
     );
     phases.refine = t_refine.elapsed().as_secs_f64();
     let report = assemble_report(
-        mesh, options, target, &out, outcome, &repair, diag, fitted, facing, phases, start,
+        mesh, options, target, &out, outcome, &repair, diag, fitted, facing, phases, start, census,
     );
     Ok(Simplified {
         mesh: out,
@@ -861,6 +872,7 @@ fn assemble_report(
     facing: Option<facing::FacingRepair>,
     phases: Phases,
     start: Instant,
+    census: Option<Census>,
 ) -> Report {
     Report {
         method: options.method.name(),
@@ -883,6 +895,8 @@ fn assemble_report(
         non_edge_contractions: outcome.non_edge_contractions,
         degenerate_removed: repair.degenerate_triangles,
         duplicate_removed: repair.duplicate_triangles,
+        non_manifold_points_in: census.map(|c| c.0),
+        non_manifold_kept: census.and_then(|c| c.1),
         rejections: outcome.rejections,
         rescans: outcome.rescans,
         retries: outcome.retries,
@@ -914,7 +928,13 @@ struct Decimated {
     diag: f64,
     /// Seconds of the build, decimation and output steps (`refine` left 0).
     phases: Phases,
+    /// Non-manifold points of the repaired input, and those of the output by
+    /// reason (edge-collapse methods).
+    census: Option<Census>,
 }
+
+/// [`Report::non_manifold_points_in`] and [`Report::non_manifold_kept`].
+pub(crate) type Census = (usize, Option<crate::collapse::NonManifoldPoints>);
 
 /// Builds the surface of `mesh`, decimates it toward `target` triangles with the
 /// method of `options` and writes the output mesh (tracking, when `track_merges`,
@@ -936,10 +956,12 @@ fn decimate_mesh(
             spatial_order: matches!(options.method, Method::Qem | Method::Melax),
             track_merges,
             move_junctions: options.moves_junctions(),
+            move_non_manifold: options.moves_junctions(),
             permissive: options.permissive && options.method == Method::Qem,
         },
     );
     let diag = surface.diagonal();
+    let nm_in = surface.non_manifold_census().total;
     let t_decimate = Instant::now();
     let stop = StopRule {
         target_triangles: target,
@@ -947,6 +969,8 @@ fn decimate_mesh(
     };
     let mut models = Models::new(options);
     let (outcome, triangles) = decimate(&mut surface, options, stop, &mut models, observer);
+    let kept = matches!(options.method, Method::Qem | Method::Melax)
+        .then(|| surface.non_manifold_census());
     let t_output = Instant::now();
     let roots = if track_merges {
         surface.vertex_roots()
@@ -976,6 +1000,7 @@ fn decimate_mesh(
             output: t_output.elapsed().as_secs_f64(),
             refine: 0.0,
         },
+        census: Some((nm_in, kept)),
     }
 }
 
@@ -1328,6 +1353,8 @@ fn cluster_result(
         non_edge_contractions: 0,
         degenerate_removed: 0,
         duplicate_removed: 0,
+        non_manifold_points_in: None,
+        non_manifold_kept: None,
         rejections: Rejections::default(),
         rescans: 0,
         retries: 0,
@@ -1495,5 +1522,7 @@ mod levels;
 pub use fit::DEFAULT_FIT_ITERATIONS;
 #[cfg(test)]
 mod tests;
+#[cfg(test)]
+mod tests_non_manifold;
 #[cfg(test)]
 mod tests_vertex_removal;

@@ -9,7 +9,10 @@
 //!   only slides along its border (collapses along a border edge, onto a border,
 //!   complex or locked vertex); an attribute-seam or material-border vertex only
 //!   along its seam; complex (non-manifold input) and locked vertices never move and
-//!   are never removed, other vertices may only be merged *onto* them — except, when
+//!   are never removed, other vertices may only be merged *onto* them — except
+//!   points inside a non-manifold chain when asked
+//!   ([`BuildOptions::move_non_manifold`]), which slide along the chain as border
+//!   points slide along their border (one triangle of every sheet dies), and, when
 //!   asked ([`BuildOptions::move_junctions`]), a seam junction (one fan, complex only
 //!   through its seam edges), which may be removed along one of its seam edges (its
 //!   border edges when on a border), its wedges off that edge carried to the
@@ -21,7 +24,10 @@
 //!   neighbourhood stays manifold, no boundary edge and no non-manifold edge is
 //!   created and no hole is closed; and no point loses its last triangle, so no
 //!   small component is collapsed away;
-//! - **no duplicate triangles** (the tetrahedron case the link condition misses);
+//!   along a non-manifold edge the apexes are one per sheet, and the checks below
+//!   run over every sheet around the two points;
+//! - **no duplicate triangles** (the tetrahedron case the link condition misses;
+//!   along a non-manifold edge, checked for every pair of apexes);
 //! - **seams**: the wedges (attribute vertices) of `u` map onto wedges of `v`
 //!   consistently on each side of a seam (a junction's or a crossing point's other
 //!   wedges move to `v` whole);
@@ -41,7 +47,7 @@ pub(crate) use surface::FanCsr;
 
 pub(crate) use surface::canonical_wedges;
 pub(crate) use surface::closest_on_triangle;
-pub use surface::{BuildOptions, Repair, Surface, DEAD};
+pub use surface::{BuildOptions, NonManifoldPoints, Repair, Surface, DEAD, MAX_SHEETS};
 
 use crate::mesh::VertexKind;
 
@@ -50,7 +56,9 @@ use crate::mesh::VertexKind;
 pub enum Reject {
     /// A vertex is dead, the two ids are equal, or a locked/complex vertex would move.
     Kind,
-    /// The edge has more than two triangles (non-manifold input edge).
+    /// A non-manifold edge that may not be collapsed: more triangles on it than
+    /// [`MAX_SHEETS`], or (by the driver) a collapse along it that would remove
+    /// more triangles than the target leaves room for.
     NonManifoldEdge,
     /// The link condition fails: the merge would pinch the surface, close a hole,
     /// glue two boundary vertices across an interior edge, or make a point vanish
@@ -109,8 +117,12 @@ pub struct CollapseRecord {
     /// Position of `kept` after the collapse (equal to `kept_old_position` for a
     /// half-edge collapse onto `kept`).
     pub position: [f32; 3],
-    /// Triangles removed by the collapse ([`DEAD`] where fewer than two).
+    /// Triangles removed by the collapse ([`DEAD`] where fewer than two; the first
+    /// two along a non-manifold edge, which removes one per sheet).
     pub removed_triangles: [u32; 2],
+    /// How many triangles the collapse removed (two inside a surface, one on a
+    /// border, one per sheet along a non-manifold edge, 0 for a non-edge pair).
+    pub removed_count: u32,
     /// The apex of each removed triangle (Hoppe's `vl`, `vr`; [`DEAD`] where none).
     pub apexes: [u32; 2],
     /// Whether it was a non-edge pair contraction.
@@ -188,6 +200,9 @@ pub struct Preview {
     pub touches_boundary: bool,
     /// Whether the pair is an edge.
     pub edge: bool,
+    /// How many triangles the collapse removes (two inside a surface, one on a
+    /// border, one per sheet along a non-manifold edge, 0 for a non-edge pair).
+    pub dying: usize,
 }
 
 /// True when a point of this kind may be removed or moved.

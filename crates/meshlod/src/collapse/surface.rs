@@ -14,6 +14,10 @@ pub const DEAD: u32 = u32::MAX;
 /// Extra slots given to every fan when the fan array is (re)built.
 const FAN_SLACK: u32 = 2;
 
+/// Most triangles on one non-manifold edge that a collapse along it handles (sheets
+/// meeting at the edge); a chain edge with more stays.
+pub const MAX_SHEETS: usize = 8;
+
 /// Point → triangle fans as one array with room to grow: point `p`'s fan is
 /// `fans[start[p]..start[p] + len[p]]`, in triangle order, with `cap[p] = len[p] +`
 /// [`FAN_SLACK`] slots reserved (unused ones hold [`DEAD`]; none for an unused point).
@@ -103,6 +107,16 @@ pub struct BuildOptions<'a> {
     /// pays for it through its seam planes and attribute terms. Open borders are
     /// still kept. Default `false`.
     pub permissive: bool,
+    /// Let non-manifold chains simplify along themselves: a point whose only
+    /// non-manifold edges are two (a point inside a chain of edges shared by three
+    /// or more triangles), whose every sheet (fan) runs from one of them to the
+    /// other, with no border or seam edge, may be removed by a half-edge collapse
+    /// along one of those two edges, onto the chain's next point, or merged with it
+    /// on the segment when that is a chain point too. Every sheet then loses its
+    /// triangle on the edge, and the chain keeps its shape (the cost model holds it
+    /// to its line). Chain ends and points where chains meet, meet a border, or
+    /// where several fans touch at one point stay. Default `false`; QEM turns it on.
+    pub move_non_manifold: bool,
 }
 
 /// What the up-front repair removed from the input.
@@ -113,6 +127,56 @@ pub struct Repair {
     /// Extra copies of triangles over the same three points (any order or winding).
     pub duplicate_triangles: usize,
 }
+
+/// The non-manifold points of a surface, by why they stay where they are
+/// ([`Surface::non_manifold_census`]). A point counts once, under the first
+/// reason that applies in this order.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, serde::Serialize)]
+pub struct NonManifoldPoints {
+    /// All of them.
+    pub total: usize,
+    /// Points where a non-manifold chain ends or where three or more meet (one, or
+    /// more than two, non-manifold edges): corners of the chain network, kept.
+    pub corner: usize,
+    /// Chain points that also lie on an open border: kept, as a border's corner.
+    pub border: usize,
+    /// Chain points on an attribute seam or material border inside a sheet: kept.
+    pub seam: usize,
+    /// Chain points whose sheets do not each run from one chain edge to the other
+    /// (a sheet folding back onto the same edge) or with more than
+    /// [`MAX_SHEETS`] triangles on a chain edge: kept.
+    pub irregular: usize,
+    /// Points where several fans touch without a non-manifold edge (a pinch, a
+    /// "bow-tie"): a point feature, kept.
+    pub pinch: usize,
+    /// Chain points that could slide along their chain but did not (the run
+    /// reached its target first, or every collapse along the chain was illegal or
+    /// too costly), or any non-manifold point where chains may not move (methods
+    /// other than QEM).
+    pub chain: usize,
+}
+
+impl NonManifoldPoints {
+    /// Adds `other`'s counts `times` times (the parts of a scene, each drawn
+    /// `times` times).
+    pub fn add(&mut self, other: &Self, times: usize) {
+        self.total += times * other.total;
+        self.corner += times * other.corner;
+        self.border += times * other.border;
+        self.seam += times * other.seam;
+        self.irregular += times * other.irregular;
+        self.pinch += times * other.pinch;
+        self.chain += times * other.chain;
+    }
+}
+
+/// Why a point is non-manifold (`Surface::nm_reason`); 0: it is not.
+const NM_CHAIN: u8 = 1;
+const NM_CORNER: u8 = 2;
+const NM_BORDER: u8 = 3;
+const NM_SEAM: u8 = 4;
+const NM_IRREGULAR: u8 = 5;
+const NM_PINCH: u8 = 6;
 
 /// Fixed inputs of the geometric checks of one proposed collapse.
 struct Geometry {
@@ -156,6 +220,11 @@ struct Dying {
     apexes: [u32; 2],
     /// How many died (0 for a non-edge pair).
     count: usize,
+    /// `(u's wedge, v's wedge)` in each of them (up to [`MAX_SHEETS`]; the first
+    /// two are `wedge_map`), with per-corner wedges.
+    wedge_map_all: [(u32, u32); MAX_SHEETS],
+    /// The third corners of all of them (up to [`MAX_SHEETS`]).
+    apexes_all: [u32; MAX_SHEETS],
 }
 
 /// Connectivity of a welded triangle mesh being simplified.
@@ -193,7 +262,7 @@ pub struct Surface {
     /// empty unless [`BuildOptions::track_merges`].
     merged: Vec<u32>,
     scratch_plans: Vec<(u32, [u32; 3], [f64; 3])>,
-    kind_changed: [u32; 2],
+    kind_changed: [u32; MAX_SHEETS],
     fold_angle: f64,
     fold_cos: f64,
     /// Per point: a complex point whose fan is one disc (open or closed) and that is
@@ -202,8 +271,18 @@ pub struct Surface {
     junction: Vec<bool>,
     move_junctions: bool,
     permissive: bool,
+    /// Per point: a point inside a non-manifold chain that may slide along it
+    /// ([`BuildOptions::move_non_manifold`]); empty without that option.
+    chain: Vec<bool>,
+    /// Per fan triangle while classifying: which chain edges end its fan.
+    scratch_ends: Vec<u8>,
+    /// Per point: why it is non-manifold (`NM_*`), 0 when it is not.
+    nm_reason: Vec<u8>,
     /// `(u's wedge, v's wedge)` on the triangles the last collapse removed.
     last_wedge_map: [(u32, u32); 2],
+    /// The same for all of them (more than two on a non-manifold edge), and how many.
+    last_wedge_map_all: [(u32, u32); MAX_SHEETS],
+    last_dying: usize,
 }
 
 #[inline(always)]
@@ -297,7 +376,7 @@ impl Surface {
                 Vec::new()
             },
             scratch_plans: Vec::new(),
-            kind_changed: [DEAD; 2],
+            kind_changed: [DEAD; MAX_SHEETS],
             fold_angle: f64::NAN,
             junction: if move_junctions {
                 vec![false; np]
@@ -306,7 +385,16 @@ impl Surface {
             },
             move_junctions,
             permissive: options.permissive,
+            chain: if options.move_non_manifold {
+                vec![false; np]
+            } else {
+                Vec::new()
+            },
+            scratch_ends: Vec::new(),
+            nm_reason: vec![0; np],
             last_wedge_map: [(DEAD, DEAD); 2],
+            last_wedge_map_all: [(DEAD, DEAD); MAX_SHEETS],
+            last_dying: 0,
             fold_cos: 0.0,
         };
         s.build_fans();
@@ -521,6 +609,58 @@ impl Surface {
     pub fn may_move(&self, p: u32) -> bool {
         super::is_movable(self.kind[p as usize])
             || self.junction.get(p as usize).copied().unwrap_or(false)
+            || self.is_chain(p)
+    }
+
+    /// The live non-manifold points (on an edge of more than two triangles, or
+    /// where several fans touch), counted by why they stay. O(points).
+    #[must_use]
+    pub fn non_manifold_census(&self) -> NonManifoldPoints {
+        let mut c = NonManifoldPoints::default();
+        for (p, &r) in self.nm_reason.iter().enumerate() {
+            if r == 0 || self.fan_slot[p].len == 0 {
+                continue;
+            }
+            c.total += 1;
+            match r {
+                NM_CHAIN => c.chain += 1,
+                NM_CORNER => c.corner += 1,
+                NM_BORDER => c.border += 1,
+                NM_SEAM => c.seam += 1,
+                NM_IRREGULAR => c.irregular += 1,
+                _ => c.pinch += 1,
+            }
+        }
+        c
+    }
+
+    /// The number of connected components of the live triangles (joined through
+    /// shared points) and of live points on a border. O(points + triangles).
+    #[must_use]
+    pub fn components_and_border_points(&self) -> (usize, usize) {
+        let mut uf = crate::mesh::topology::UnionFind::new(self.pos.len());
+        for t in &self.tri {
+            if t[0] != DEAD {
+                uf.union(t[0], t[1]);
+                uf.union(t[0], t[2]);
+            }
+        }
+        let (mut components, mut border) = (0, 0);
+        for p in 0..self.pos.len() as u32 {
+            if self.is_alive(p) {
+                components += usize::from(uf.find(p) == p);
+                border += usize::from(self.boundary[p as usize]);
+            }
+        }
+        (components, border)
+    }
+
+    /// Whether `p` is a point inside a non-manifold chain that may slide along it
+    /// ([`BuildOptions::move_non_manifold`]).
+    #[must_use]
+    #[inline]
+    pub fn is_chain(&self, p: u32) -> bool {
+        self.chain.get(p as usize).copied().unwrap_or(false)
     }
 
     /// Whether point `p` lies on a boundary edge.
@@ -603,9 +743,10 @@ impl Surface {
         self.diag
     }
 
-    /// Calls `f(a, b, t, kind)` for every border edge (`kind = Border`) and every
+    /// Calls `f(a, b, t, kind)` for every border edge (`kind = Border`), every
     /// attribute-seam or material-border edge (`kind = Seam`, once per side, with the
-    /// triangle of that side), where `t` is a triangle on the edge.
+    /// triangle of that side) and every non-manifold edge (`kind = Complex`, once per
+    /// triangle on it), where `t` is a triangle on the edge.
     pub fn for_each_feature_edge(&self, mut f: impl FnMut(u32, u32, u32, VertexKind)) {
         for (ti, t) in self.tri.iter().enumerate() {
             if t[0] == DEAD {
@@ -644,6 +785,8 @@ impl Surface {
                     f(a, b, ti as u32, VertexKind::Border);
                 } else if others == 1 && seam {
                     f(a, b, ti as u32, VertexKind::Seam);
+                } else if others >= 2 {
+                    f(a, b, ti as u32, VertexKind::Complex);
                 }
             }
         }
@@ -662,6 +805,10 @@ impl Surface {
         if self.move_junctions {
             self.junction[pi] = false;
         }
+        if let Some(c) = self.chain.get_mut(pi) {
+            *c = false;
+        }
+        self.nm_reason[pi] = 0;
         if fl == 0 {
             self.kind[pi] = VertexKind::Complex;
             self.boundary[pi] = false;
@@ -732,6 +879,11 @@ impl Surface {
         let mut complex = false;
         let mut nb = 0;
         let mut ns = 0;
+        // The non-manifold edges (more than two triangles): the first two, and how
+        // many, with the most triangles on one.
+        let mut nm = [DEAD; 2];
+        let mut n_nm = 0;
+        let mut nm_max = 0;
         for e in &edges {
             match e.count {
                 1 => nb += 1,
@@ -758,12 +910,35 @@ impl Surface {
                         ns += 1;
                     }
                 }
-                _ => complex = true,
+                c => {
+                    complex = true;
+                    if c > 2 {
+                        if n_nm < 2 {
+                            nm[n_nm] = e.q;
+                        }
+                        n_nm += 1;
+                        nm_max = nm_max.max(c);
+                    }
+                }
             }
         }
         let roots = (0..parent.len()).filter(|&i| parent[i] == i as u32).count();
         if roots != 1 {
             complex = true;
+        }
+        self.nm_reason[pi] = match (n_nm, nb, ns) {
+            (0, _, _) if roots > 1 => NM_PINCH,
+            (0, _, _) => 0,
+            (1 | 3.., _, _) => NM_CORNER,
+            (_, 1.., _) => NM_BORDER,
+            (_, _, 1..) => NM_SEAM,
+            _ if nm_max as usize > MAX_SHEETS || !self.fans_span_chain(p, &mut parent, nm) => {
+                NM_IRREGULAR
+            }
+            _ => NM_CHAIN,
+        };
+        if self.nm_reason[pi] == NM_CHAIN && !self.chain.is_empty() {
+            self.chain[pi] = true;
         }
         self.kind[pi] = if complex {
             VertexKind::Complex
@@ -784,6 +959,48 @@ impl Surface {
         self.boundary[pi] = nb > 0;
         self.scratch_edges = edges;
         self.scratch_parent = parent;
+    }
+
+    /// Whether every fan of `p` (the classes of `parent`, a union-find over the
+    /// places in `p`'s fan list) is a strip from the chain edge `(p, nm[0])` to
+    /// `(p, nm[1])`: it has exactly one triangle side on each of them (so it is an
+    /// open disc, as the fans are joined through two-triangle edges only, with its
+    /// two ends on the chain).
+    fn fans_span_chain(&mut self, p: u32, parent: &mut [u32], nm: [u32; 2]) -> bool {
+        let s = self.fan_slot[p as usize].start as usize;
+        let fl = self.fan_slot[p as usize].len as usize;
+        let mut ends = std::mem::take(&mut self.scratch_ends);
+        ends.clear();
+        ends.resize(fl, 0);
+        let mut ok = true;
+        'tris: for li in 0..fl {
+            let mut r = li;
+            while parent[r] != r as u32 {
+                let g = parent[parent[r] as usize];
+                parent[r] = g;
+                r = g as usize;
+            }
+            let tt = self.tri[self.fans[s + li] as usize];
+            for q in tt {
+                let bit = if q == nm[0] {
+                    1
+                } else if q == nm[1] {
+                    2
+                } else {
+                    continue;
+                };
+                if ends[r] & bit != 0 {
+                    ok = false;
+                    break 'tris;
+                }
+                ends[r] |= bit;
+            }
+        }
+        if ok {
+            ok = (0..fl).all(|i| parent[i] != i as u32 || ends[i] == 3);
+        }
+        self.scratch_ends = ends;
+        ok
     }
 
     /// Fast path of [`Self::classify`] for a fan of at most 16 triangles without
@@ -1044,7 +1261,21 @@ impl Surface {
             });
         }
         if count > 2 {
-            return None;
+            // A non-manifold edge: only a chain point slides along it.
+            let (ca, cb) = (self.is_chain(a), self.is_chain(b));
+            if !(ca || cb) || count as usize > MAX_SHEETS {
+                return None;
+            }
+            return Some(Moves {
+                a_to_b: ca,
+                b_to_a: cb,
+                merge: if ca && cb {
+                    Merge::OnSegment
+                } else {
+                    Merge::No
+                },
+                edge: true,
+            });
         }
         let border_edge = count == 1;
         let crosses = self.permissive && !border_edge;
@@ -1118,7 +1349,7 @@ impl Surface {
             return Err(Reject::Kind);
         }
         let v_moves = p != self.pos[v as usize];
-        if v_moves && !super::is_movable(self.kind(v)) {
+        if v_moves && !super::is_movable(self.kind(v)) && !self.is_chain(v) {
             return Err(Reject::Kind);
         }
         preview.touches_boundary = self.boundary[u as usize] || self.boundary[v as usize];
@@ -1137,6 +1368,7 @@ impl Surface {
         preview.changed = changed;
         let dying = r?;
         preview.edge = dying > 0;
+        preview.dying = dying;
         Ok(())
     }
 
@@ -1169,8 +1401,8 @@ impl Surface {
         // triangles that survive with u moved to p.
         let g = self.next_gen();
         let mut dying = 0usize;
-        let mut opp = [DEAD; 2];
-        let mut dying_t = [DEAD; 2];
+        let mut opp = [DEAD; MAX_SHEETS];
+        let mut dying_t = [DEAD; MAX_SHEETS];
         let pu = f64x3(self.pos[u as usize]);
         let su = self.fan_slot[u as usize].start as usize;
         let lu = self.fan_slot[u as usize].len as usize;
@@ -1185,7 +1417,7 @@ impl Surface {
         for &t in &fans[su..su + lu] {
             let tt = tri[t as usize];
             if tt.contains(&v) {
-                if dying == 2 {
+                if dying == MAX_SHEETS {
                     return Err(Reject::NonManifoldEdge);
                 }
                 opp[dying] = tt[0] ^ tt[1] ^ tt[2] ^ u ^ v;
@@ -1203,6 +1435,10 @@ impl Surface {
         if dying == 0 && !limits.allow_non_edge {
             return Err(Reject::Pair);
         }
+        // A chain point moves only along its chain (a non-manifold edge).
+        if dying < 3 && (self.is_chain(u) || (v_moves && self.is_chain(v))) {
+            return Err(Reject::Kind);
+        }
         if dying == 2 && self.boundary[u as usize] && self.boundary[v as usize] {
             return Err(Reject::Link);
         }
@@ -1210,9 +1446,9 @@ impl Surface {
         // small component is never collapsed away).
         let left = self.fan_slot[u as usize].len as usize + self.fan_slot[v as usize].len as usize;
         if left <= 2 * dying
-            || opp
+            || opp[..dying]
                 .iter()
-                .any(|&a| a != DEAD && self.fan_slot[a as usize].len <= 1)
+                .any(|&a| self.fan_slot[a as usize].len <= 1)
         {
             return Err(Reject::Link);
         }
@@ -1239,6 +1475,10 @@ impl Surface {
         }
         // Fan of v: the link condition (common neighbours are exactly the apexes; a
         // non-edge pair may have none) and the triangles that survive with v moved.
+        // The apexes are the common neighbours allowed: unmarked.
+        for &a in &opp[..dying] {
+            self.mark[a as usize] = 0;
+        }
         let pv = f64x3(self.pos[v as usize]);
         let sv = self.fan_slot[v as usize].start as usize;
         let lv = self.fan_slot[v as usize].len as usize;
@@ -1246,7 +1486,7 @@ impl Surface {
         for &t in &fans[sv..sv + lv] {
             let tt = tri[t as usize];
             for &x in &tt {
-                if x != v && x != u && mark[x as usize] == g && x != opp[0] && x != opp[1] {
+                if x != v && x != u && mark[x as usize] == g {
                     return Err(if dying == 0 {
                         Reject::Pair
                     } else {
@@ -1275,16 +1515,23 @@ impl Surface {
                 return Err(Reject::Duplicate);
             }
         }
+        // Along a non-manifold edge: a surviving triangle of u over two apexes must
+        // not repeat one of v's (the only common neighbours are the apexes).
+        if dying > 2 && self.chain_duplicate(u, v, &opp[..dying]) {
+            return Err(Reject::Duplicate);
+        }
         // Seams: u's wedges map onto v's consistently.
         if self.tri_wedge.is_some() {
-            let mut map = [(DEAD, DEAD); 2];
+            let mut map = [(DEAD, DEAD); MAX_SHEETS];
             for (i, &t) in dying_t.iter().take(dying).enumerate() {
                 let wu = self.wedge(t, self.corner_of(t, u));
                 let wv = self.wedge(t, self.corner_of(t, v));
                 map[i] = (wu, wv);
             }
-            if dying == 2 && map[0].0 == map[1].0 && map[0].1 != map[1].1 {
-                return Err(Reject::Seam);
+            for i in 1..dying {
+                if map[..i].iter().any(|m| m.0 == map[i].0 && m.1 != map[i].1) {
+                    return Err(Reject::Seam);
+                }
             }
             // Skins: the dominant joint is a discontinuity that is kept (unless
             // permissive): merged wedges must share it.
@@ -1311,12 +1558,40 @@ impl Surface {
                     break;
                 }
                 let wu = self.wedge(t, self.corner_of(t, u));
-                if wu != map[0].0 && wu != map[1].0 {
+                if !map[..dying.max(2)].iter().any(|m| m.0 == wu) {
                     return Err(Reject::Seam);
                 }
             }
         }
         Ok(dying)
+    }
+
+    /// Whether a triangle of `u` not over `v` has its two other corners among
+    /// `apexes` and a triangle of `v` not over `u` has the same two: merging `u`
+    /// into `v` would make them one triangle twice.
+    fn chain_duplicate(&self, u: u32, v: u32, apexes: &[u32]) -> bool {
+        self.fan(u).iter().any(|&t| {
+            let tt = self.tri[t as usize];
+            if tt.contains(&v) {
+                return false;
+            }
+            let (mut w, mut x) = (DEAD, DEAD);
+            for &c in &tt {
+                if c != u {
+                    if w == DEAD {
+                        w = c;
+                    } else {
+                        x = c;
+                    }
+                }
+            }
+            apexes.contains(&w)
+                && apexes.contains(&x)
+                && self.fan(v).iter().any(|&t2| {
+                    let t2t = self.tri[t2 as usize];
+                    t2t.contains(&w) && t2t.contains(&x) && !t2t.contains(&u)
+                })
+        })
     }
 
     /// Triangle `t = tt` with its corner `w` (at `pw`) moved to `geo.p`: refused if it
@@ -1391,7 +1666,7 @@ impl Surface {
         let removed_position = self.pos[u as usize];
         let kept_old_position = self.pos[v as usize];
         let v_moves = p != kept_old_position;
-        self.kind_changed = [DEAD; 2];
+        self.kind_changed = [DEAD; MAX_SHEETS];
 
         // In steps: the attributes are interpolated (when `v` moves), the triangles
         // over both points die, `u`'s other corners become `v`'s, the two fans merge
@@ -1410,14 +1685,17 @@ impl Surface {
         let lu = self.fan_slot[u as usize].len as usize;
         let dying = self.kill_shared_triangles(u, v, su, lu);
         let non_edge = dying.count == 0;
+        let n_all = dying.count.min(MAX_SHEETS);
         self.last_wedge_map = dying.wedge_map;
-        self.redirect_corners(u, v, su, lu, non_edge, &dying.wedge_map);
+        self.last_wedge_map_all = dying.wedge_map_all;
+        self.last_dying = n_all;
+        self.redirect_corners(u, v, su, lu, non_edge, &dying.wedge_map_all[..n_all]);
         let new_len = self.merge_fans(u, v, su, lu, dying.count);
         if let Some(m) = self.merged.get_mut(u as usize) {
             *m = v;
         }
         self.pos[v as usize] = p;
-        self.update_kinds(u, v, dying.apexes, non_edge, new_len);
+        self.update_kinds(u, v, &dying.apexes_all[..n_all], non_edge, new_len);
 
         CollapseRecord {
             removed: u,
@@ -1426,6 +1704,7 @@ impl Surface {
             kept_old_position,
             position: p,
             removed_triangles: dying.triangles,
+            removed_count: dying.count as u32,
             apexes: dying.apexes,
             non_edge,
             cost: 0.0,
@@ -1445,17 +1724,23 @@ impl Surface {
             triangles: [DEAD; 2],
             apexes: [DEAD; 2],
             count: 0,
+            wedge_map_all: [(DEAD, DEAD); MAX_SHEETS],
+            apexes_all: [DEAD; MAX_SHEETS],
         };
         let mut nmap = 0;
         for i in 0..lu {
             let t = self.fans[su + i];
             let tt = self.tri[t as usize];
             if tt.contains(&v) {
-                if self.tri_wedge.is_some() && nmap < 2 {
-                    d.wedge_map[nmap] = (
+                if self.tri_wedge.is_some() && nmap < MAX_SHEETS {
+                    let m = (
                         self.wedge(t, self.corner_of(t, u)),
                         self.wedge(t, self.corner_of(t, v)),
                     );
+                    if nmap < 2 {
+                        d.wedge_map[nmap] = m;
+                    }
+                    d.wedge_map_all[nmap] = m;
                     nmap += 1;
                 }
                 let x = tt[0] ^ tt[1] ^ tt[2] ^ u ^ v;
@@ -1463,6 +1748,9 @@ impl Surface {
                 if d.count < 2 {
                     d.triangles[d.count] = t;
                     d.apexes[d.count] = x;
+                }
+                if d.count < MAX_SHEETS {
+                    d.apexes_all[d.count] = x;
                 }
                 d.count += 1;
                 self.tri[t as usize] = [DEAD; 3];
@@ -1485,7 +1773,7 @@ impl Surface {
         su: usize,
         lu: usize,
         non_edge: bool,
-        wedge_map: &[(u32, u32); 2],
+        wedge_map: &[(u32, u32)],
     ) {
         for i in 0..lu {
             let t = self.fans[su + i];
@@ -1506,13 +1794,7 @@ impl Surface {
                     self.wedge_point[tw[t as usize][k] as usize] = v;
                 } else {
                     let w = tw[t as usize][k];
-                    let to = if w == wedge_map[0].0 {
-                        wedge_map[0].1
-                    } else if w == wedge_map[1].0 {
-                        wedge_map[1].1
-                    } else {
-                        DEAD
-                    };
+                    let to = wedge_map.iter().find(|m| m.0 == w).map_or(DEAD, |m| m.1);
                     if to == DEAD {
                         // A wedge of a junction (or of a point crossing its seam)
                         // off the collapsed edge: it moves to `v` whole.
@@ -1626,7 +1908,7 @@ impl Surface {
     /// changed are recorded ([`Self::kind_changes`]). A `v` left with an empty fan
     /// (`new_len`) is complex.
     #[inline(always)]
-    fn update_kinds(&mut self, u: u32, v: u32, apexes: [u32; 2], non_edge: bool, new_len: usize) {
+    fn update_kinds(&mut self, u: u32, v: u32, apexes: &[u32], non_edge: bool, new_len: usize) {
         let ku = self.kind[u as usize];
         let all_manifold = ku == VertexKind::Manifold
             && self.kind[v as usize] == VertexKind::Manifold
@@ -1643,7 +1925,7 @@ impl Surface {
             self.boundary[v as usize] |= boundary_u;
         } else if !all_manifold {
             self.classify(v);
-            for (i, x) in apexes.into_iter().enumerate() {
+            for (i, &x) in apexes.iter().enumerate() {
                 if x != DEAD {
                     let before = (self.kind[x as usize], self.boundary[x as usize]);
                     self.classify(x);
@@ -1661,7 +1943,7 @@ impl Surface {
     /// Apexes of the last collapse whose kind or boundary flag changed ([`DEAD`]
     /// where none): their pairs need re-evaluating.
     #[must_use]
-    pub fn kind_changes(&self) -> [u32; 2] {
+    pub fn kind_changes(&self) -> [u32; MAX_SHEETS] {
         self.kind_changed
     }
 
@@ -1933,6 +2215,33 @@ impl Surface {
     /// removed ([`DEAD`] where fewer).
     pub(crate) fn last_wedge_map(&self) -> [(u32, u32); 2] {
         self.last_wedge_map
+    }
+
+    /// `(u's wedge, v's wedge)` on every triangle the last collapse removed (more
+    /// than two along a non-manifold edge).
+    pub(crate) fn last_wedge_map_all(&self) -> &[(u32, u32)] {
+        &self.last_wedge_map_all[..self.last_dying]
+    }
+
+    /// `(a's wedge, b's wedge)` in every triangle on edge `(a, b)` (up to
+    /// [`MAX_SHEETS`]), into `out`; returns how many.
+    pub(crate) fn edge_wedges_all(
+        &self,
+        a: u32,
+        b: u32,
+        out: &mut [(u32, u32); MAX_SHEETS],
+    ) -> usize {
+        let mut n = 0;
+        for &t in self.fan(a) {
+            if n < MAX_SHEETS && self.tri[t as usize].contains(&b) {
+                out[n] = (
+                    self.wedge(t, self.corner_of(t, a)),
+                    self.wedge(t, self.corner_of(t, b)),
+                );
+                n += 1;
+            }
+        }
+        n
     }
 
     /// Takes the working attribute streams out (for building the output).

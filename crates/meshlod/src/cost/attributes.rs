@@ -321,6 +321,74 @@ impl WedgeQuadrics {
         q
     }
 
+    /// [`Self::correction`] for any number of wedge pairs (the triangles of a
+    /// non-manifold edge, one per sheet): the wedges linked through the pairs form
+    /// groups, each merged as one.
+    pub(crate) fn correction_all(&self, pairs: &[(u32, u32)]) -> Quadric {
+        let mut q = Quadric::ZERO;
+        // Distinct wedges and a union-find over them (at most two per pair).
+        let mut ids = [DEAD; 2 * crate::collapse::MAX_SHEETS];
+        let mut parent = [0usize; 2 * crate::collapse::MAX_SHEETS];
+        let mut n = 0;
+        fn root(parent: &[usize], mut i: usize) -> usize {
+            while parent[i] != i {
+                i = parent[i];
+            }
+            i
+        }
+        for &(a, b) in pairs {
+            if a == DEAD || b == DEAD {
+                continue;
+            }
+            let mut at = [0usize; 2];
+            for (k, x) in [a, b].into_iter().enumerate() {
+                at[k] = match ids[..n].iter().position(|&y| y == x) {
+                    Some(i) => i,
+                    None if n < ids.len() => {
+                        ids[n] = x;
+                        parent[n] = n;
+                        n += 1;
+                        n - 1
+                    }
+                    None => return q,
+                };
+            }
+            let (ra, rb) = (root(&parent, at[0]), root(&parent, at[1]));
+            if ra != rb {
+                parent[ra.max(rb)] = ra.min(rb);
+            }
+        }
+        let mut members = [DEAD; 2 * crate::collapse::MAX_SHEETS];
+        for r in 0..n {
+            if parent[r] != r {
+                continue;
+            }
+            let mut m = 0;
+            for (i, &id) in ids[..n].iter().enumerate() {
+                if root(&parent, i) == r {
+                    members[m] = id;
+                    m += 1;
+                }
+            }
+            self.group_into(&members[..m], &mut q);
+        }
+        q
+    }
+
+    /// [`Self::merge`] for any number of wedge pairs.
+    pub(crate) fn merge_all(&mut self, map: &[(u32, u32)]) {
+        for &(wu, wv) in map {
+            if wu == DEAD || wv == DEAD || wu == wv {
+                continue;
+            }
+            let (a, b) = (wu as usize * self.stride, wv as usize * self.stride);
+            for k in 0..self.stride {
+                self.data[b + k] += self.data[a + k];
+                self.data[a + k] = 0.0;
+            }
+        }
+    }
+
     /// Adds to `q` the Schur terms of `members` apart minus that of their sum.
     fn group_into(&self, members: &[u32], q: &mut Quadric) {
         if members.len() < 2 || members[0] == members[1] && members.len() == 2 {

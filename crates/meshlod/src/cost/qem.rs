@@ -160,7 +160,15 @@ impl Qem {
     fn pair_quadric_with_attributes(&self, surface: &Surface, a: u32, b: u32) -> Quadric {
         let mut q = self.quadrics[a as usize].sum(&self.quadrics[b as usize]);
         if let Some(w) = &self.wedges {
-            q.add(&w.correction(&surface.edge_wedges(a, b)));
+            if surface.is_chain(a) || surface.is_chain(b) {
+                // Possibly a non-manifold edge: every sheet's wedges merge.
+                let mut pairs =
+                    [(crate::collapse::DEAD, crate::collapse::DEAD); crate::collapse::MAX_SHEETS];
+                let n = surface.edge_wedges_all(a, b, &mut pairs);
+                q.add(&w.correction_all(&pairs[..n]));
+            } else {
+                q.add(&w.correction(&surface.edge_wedges(a, b)));
+            }
         }
         q
     }
@@ -316,7 +324,13 @@ impl CostModel for Qem {
         }
         let (wb, ws) = (self.options.boundary_weight, self.options.seam_weight);
         surface.for_each_feature_edge(|a, b, t, kind| {
-            let w = if kind == VertexKind::Border { wb } else { ws };
+            // Borders and non-manifold edges (one plane per sheet: together they
+            // hold the chain to its line) at the border weight, seams at theirs.
+            let w = if matches!(kind, VertexKind::Border | VertexKind::Complex) {
+                wb
+            } else {
+                ws
+            };
             if w <= 0.0 {
                 return;
             }
@@ -445,7 +459,13 @@ impl CostModel for Qem {
         let r = self.quadrics[record.removed as usize];
         self.quadrics[record.kept as usize].add(&r);
         if let Some(w) = &mut self.wedges {
-            if !record.non_edge {
+            if !record.non_edge && record.removed_count > 2 {
+                // Along a non-manifold edge: every sheet's wedges merge.
+                let map = surface.last_wedge_map_all();
+                let c = w.correction_all(map);
+                self.quadrics[record.kept as usize].add(&c);
+                w.merge_all(map);
+            } else if !record.non_edge {
                 let map = surface.last_wedge_map();
                 let c = w.correction(&map);
                 self.quadrics[record.kept as usize].add(&c);

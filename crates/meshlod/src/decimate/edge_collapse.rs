@@ -617,11 +617,24 @@ fn no_legal_collapse_detail(surface: &Surface, r: &Rejections) -> String {
             }
         }
     }
+    let (components, border) = surface.components_and_border_points();
+    let nm = surface.non_manifold_census();
     format!(
         "no legal collapse left: {fixed} of the {live} points left may not move \
          (seam or material-border junctions, non-manifold or locked points); \
+         the surface keeps its {components} components (no part is collapsed away), \
+         {border} border points (holes are not closed) and {} non-manifold points \
+         ({} chain corners, {} on a border, {} on a seam, {} irregular, {} pinches, \
+         {} chain points); \
          rejected so far: link {}, fold-over {}, degenerate {}, duplicate {}, \
          seam {}, kind {}, non-manifold edge {}, filters {}",
+        nm.total,
+        nm.corner,
+        nm.border,
+        nm.seam,
+        nm.irregular,
+        nm.pinch,
+        nm.chain,
         r.link,
         r.fold_over,
         r.degenerate,
@@ -772,6 +785,18 @@ fn run_impl<C: CostModel + ?Sized>(
         {
             d.check_rejected(e, &m, r, &mut out.rejections, &mut parked);
             continue;
+        }
+        // A collapse along a non-manifold edge removes one triangle per sheet: not
+        // one that would land further below the target than a plain collapse may
+        // (1% of it, or one triangle).
+        if preview.dying > 2 {
+            let slack = stop.target_triangles.div_ceil(100).max(1);
+            let left = d.surface.live_triangles().saturating_sub(preview.dying);
+            if left + slack < stop.target_triangles {
+                let r = Reject::NonManifoldEdge;
+                d.check_rejected(e, &m, r, &mut out.rejections, &mut parked);
+                continue;
+            }
         }
         d.prefetch_after_check(&preview);
         let Some(exact) = d.screen(e, &c, &preview, &mut out.rejections, &mut parked) else {

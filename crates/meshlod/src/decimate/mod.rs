@@ -99,7 +99,8 @@ impl Observer for CollapseRecorder {
 pub struct Rejections {
     /// Kinds (locked/complex vertex would move, dead points).
     pub kind: u64,
-    /// Non-manifold edge.
+    /// Non-manifold edge: more sheets than a collapse along it handles, or a
+    /// collapse along it that would land too far below the target.
     pub non_manifold_edge: u64,
     /// Link condition.
     pub link: u64,

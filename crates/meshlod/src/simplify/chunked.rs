@@ -144,6 +144,7 @@ pub(super) fn simplify_chunked(
         outcome,
         repair,
         phases: global,
+        census,
         ..
     } = d;
     let vertex_source: Vec<u32> = vertex_source.iter().map(|&v| source[v as usize]).collect();
@@ -170,6 +171,7 @@ pub(super) fn simplify_chunked(
         facing,
         phases,
         seconds: start.elapsed().as_secs_f64(),
+        census,
     });
     Ok(Simplified {
         mesh: out,
@@ -223,11 +225,7 @@ struct Recorder(Vec<(u8, f64)>);
 
 impl Observer for Recorder {
     fn collapsed(&mut self, record: &crate::collapse::CollapseRecord) {
-        let removed = record
-            .removed_triangles
-            .iter()
-            .filter(|&&t| t != crate::collapse::DEAD)
-            .count() as u8;
+        let removed = record.removed_count.min(u32::from(u8::MAX)) as u8;
         self.0.push((removed, record.error));
     }
 }
@@ -433,6 +431,8 @@ struct ChunkedRun<'a> {
     facing: Option<super::facing::FacingRepair>,
     phases: Phases,
     seconds: f64,
+    /// The global pass's non-manifold census.
+    census: Option<super::Census>,
 }
 
 /// The report of a chunked run: the chunks' and the global pass's counts added,
@@ -489,6 +489,8 @@ fn chunked_report(run: ChunkedRun<'_>) -> Report {
         non_edge_contractions: 0,
         degenerate_removed: degenerate,
         duplicate_removed: duplicate,
+        non_manifold_points_in: run.census.map(|c| c.0),
+        non_manifold_kept: run.census.and_then(|c| c.1),
         rejections,
         rescans,
         retries,

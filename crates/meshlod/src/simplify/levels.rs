@@ -112,10 +112,12 @@ pub fn simplify_levels(
             spatial_order: true,
             track_merges: false,
             move_junctions: options.moves_junctions(),
+            move_non_manifold: options.moves_junctions(),
             permissive: options.permissive && options.method == Method::Qem,
         },
     );
     let diag = surface.diagonal();
+    let nm_in = surface.non_manifold_census().total;
     let tree = (options.facing_repair && !mesh.triangles.is_empty())
         .then(|| Bvh::build_morton(&mesh.positions, &mesh.triangles));
     let build_seconds = t_build.elapsed().as_secs_f64();
@@ -147,7 +149,18 @@ pub fn simplify_levels(
         );
         phases.refine = t_refine.elapsed().as_secs_f64();
         let mut report = assemble_report(
-            mesh, options, at_most, &out, outcome, &repair, diag, fitted, facing, phases, t_refine,
+            mesh,
+            options,
+            at_most,
+            &out,
+            outcome,
+            &repair,
+            diag,
+            fitted,
+            facing,
+            phases,
+            t_refine,
+            Some((nm_in, None)),
         );
         report.seconds += seconds;
         LevelOutput {

@@ -34,9 +34,9 @@
 //! larger maximum and the larger mean of the two. The work is split into chunks run in
 //! parallel and merged in order, so the numbers do not depend on the thread count.
 //! Cost: one closest-point query per sample, as the face and vertex part of the
-//! geometric measure (so about half its time again), plus a box query at seams and a
-//! second closest-point query, restricted to the sample's material, where the closest
-//! triangle belongs to another material.
+//! geometric measure (0.7–3.2× its time on the glTF sample assets), plus a box query
+//! at edges and corners and a second closest-point query, restricted to the sample's
+//! material, where the closest triangle belongs to another material.
 
 use super::bvh::Bvh;
 use super::triangle::{closest_point, dist2, Region, V3};

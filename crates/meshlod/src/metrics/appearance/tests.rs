@@ -147,6 +147,28 @@ fn seams_take_the_nearest_side() {
 }
 
 #[test]
+fn seams_on_the_measured_against_side() {
+    // One triangle on each side of B's seam, each with a corner on the seam (its
+    // first vertex, so the first query, without a hint) and the UVs of its side,
+    // one wedge per vertex. The closest-point query at that corner picks one of B's
+    // triangles around it, the same one for both: only taking every side of B's
+    // seam matches both triangles.
+    let b = seamed(4);
+    let only_vertices = SamplingOptions {
+        faces: false,
+        ..SamplingOptions::default()
+    };
+    for (dx, du) in [(-0.25f32, 0.0f32), (0.25, 0.5)] {
+        let positions = vec![[0.5, 0.5, 0.0], [0.5 + dx, 0.5, 0.0], [0.5 + dx, 0.75, 0.0]];
+        let mut a = Mesh::from_triangles(positions, vec![[0, 1, 2]]);
+        a.attributes.uv0 = Some(a.positions.iter().map(|p| [p[0] + du, p[1]]).collect());
+        let r = appearance(&a, &b, &only_vertices).unwrap();
+        assert_eq!(r.a_to_b.samples, 3);
+        assert!(r.a_to_b.uv.unwrap().max < 1e-6, "side {dx}: {r:?}");
+    }
+}
+
+#[test]
 fn uvs_are_compared_within_the_same_material() {
     // A: the square in material "wood". B: the same square, plus a second copy lying
     // on it (listed first, so it wins ties) in material "decal" with other UVs.

@@ -143,6 +143,51 @@ fn measure_a_mesh_against_itself_and_write_a_heatmap() {
 }
 
 #[test]
+fn measure_reports_attribute_deviation_in_json() {
+    // The Duck (UVs and normals) against itself: zero deviation, both directions.
+    let duck = data_dir().join("Duck/Duck.gltf");
+    let d = duck.to_str().unwrap();
+    let out = meshlod(&["measure", d, d, "--samples", "20000", "--json"]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let ap = &v["appearance"];
+    for key in ["uv", "normal_deg"] {
+        assert!(ap[key]["max"].as_f64().unwrap() < 1e-4, "{key}: {ap}");
+        assert!(ap[key]["mean"].as_f64().unwrap() < 1e-6, "{key}: {ap}");
+        assert!(ap["a_to_b"][key]["samples"].as_u64().unwrap() > 20_000);
+    }
+    // No colours on the Duck: no colour entry.
+    assert!(ap.get("color").is_none(), "{ap}");
+    assert!(v["appearance_seconds"].is_number());
+    // The geometric fields are unchanged.
+    assert!(v["hausdorff"].as_f64().unwrap() < 1e-5);
+    // Simplified, the deviation is positive; --no-appearance drops it.
+    let dir = tempfile::tempdir().unwrap();
+    let low = dir.path().join("duck.glb");
+    let l = low.to_str().unwrap();
+    let s = meshlod(&["simplify", d, "-o", l, "--ratio", "0.1"]);
+    assert!(s.status.success(), "{}", String::from_utf8_lossy(&s.stderr));
+    let out = meshlod(&["measure", d, l, "--samples", "20000", "--json"]);
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let n = &v["appearance"]["normal_deg"];
+    assert!(n["max"].as_f64().unwrap() > n["mean"].as_f64().unwrap());
+    assert!(n["mean"].as_f64().unwrap() > 0.1, "{n}");
+    let out = meshlod(&["measure", d, l, "--no-appearance", "--json"]);
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert!(v.get("appearance").is_none() && v["hausdorff"].is_number());
+    let out = meshlod(&["measure", d, l, "--samples", "20000"]);
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        text.contains("normal (deg)") && text.contains("uv"),
+        "{text}"
+    );
+}
+
+#[test]
 fn simplify_measure_adds_the_hausdorff_distance() {
     let cow = data_dir().join("cow.obj");
     let dir = tempfile::tempdir().unwrap();

@@ -23,6 +23,7 @@
 //! field of view `θ` on a screen `x` pixels high is `p = ε x / (2 d tan(θ/2))`
 //! ([`screen_space_error`]).
 
+pub mod appearance;
 pub mod bvh;
 pub mod certify;
 pub mod triangle;

@@ -1,6 +1,6 @@
 //! `meshlod dag build IN -o X.mdag [--cluster-size 128] [--json]` and `meshlod dag
-//! cut X.mdag --camera X,Y,Z [--fov DEG] [--height PX] [--pixel-error P] -o OUT
-//! [--json]`: the cluster hierarchy of view-dependent level of detail
+//! cut X.mdag --camera X,Y,Z [--target X,Y,Z] [--fov DEG] [--height PX] [--width PX]
+//! [--pixel-error P] [--cull] -o OUT [--json]`: the cluster hierarchy of view-dependent level of detail
 //! (`meshlod::lod::dag`) and its crack-free cut for a camera.
 
 use anyhow::{bail, Context, Result};
@@ -46,12 +46,27 @@ pub struct CutArgs {
     /// Camera position in the mesh's units, `x,y,z`.
     #[arg(long, value_name = "X,Y,Z", value_parser = crate::lod::parse_point)]
     pub camera: [f64; 3],
+    /// The point the camera looks at, `x,y,z`. With it, groups of clusters wholly
+    /// outside the view (behind the camera or beyond the screen's corners) are taken
+    /// as coarse as the hierarchy allows; the cut stays closed. Without it, every
+    /// direction counts as in view.
+    #[arg(long, value_name = "X,Y,Z", value_parser = crate::lod::parse_point)]
+    pub target: Option<[f64; 3]>,
     /// Vertical field of view in degrees.
     #[arg(long, value_name = "DEG", default_value_t = 60.0)]
     pub fov: f64,
     /// Screen height in pixels.
     #[arg(long, value_name = "PX", default_value_t = 1080.0)]
     pub height: f64,
+    /// Screen width in pixels, for the screen's corners with `--target` [default:
+    /// height × 16/9].
+    #[arg(long, value_name = "PX")]
+    pub width: Option<f64>,
+    /// With `--target`: drop the clusters of the cut that are out of view, as a
+    /// renderer's frustum culling does (the output then has holes where nothing is
+    /// seen).
+    #[arg(long, requires = "target")]
+    pub cull: bool,
     /// Largest error a cluster may show, in pixels.
     #[arg(long, value_name = "P", default_value_t = 1.0)]
     pub pixel_error: f64,
@@ -119,17 +134,25 @@ fn cut(a: &CutArgs) -> Result<()> {
         pixel_error: a.pixel_error,
         screen_height_px: a.height,
         fov_degrees: a.fov,
-        ..Screen::default()
+        aspect: a.width.map_or(16.0 / 9.0, |w| w / a.height),
     };
     screen.check()?;
+    if a.target == Some(a.camera) {
+        bail!("--target is the camera position: it gives no view direction");
+    }
     let data = std::fs::read(&a.file).with_context(|| a.file.display().to_string())?;
     let dag = read_mdag(&data).with_context(|| a.file.display().to_string())?;
     let view = DagView {
         position: a.camera,
+        target: a.target,
         screen,
     };
     let t = Instant::now();
-    let clusters = dag.cut(&view);
+    let mut clusters = dag.cut(&view);
+    let in_cut = clusters.len();
+    if a.cull {
+        clusters = dag.visible(&view, &clusters);
+    }
     let cut_seconds = t.elapsed().as_secs_f64();
     let mesh = dag.cut_mesh(&clusters);
     write_mesh(&a.output, &mesh, &WriteOptions::default())?;
@@ -148,6 +171,8 @@ fn cut(a: &CutArgs) -> Result<()> {
                 "triangles": mesh.triangles.len(),
                 "vertices": mesh.positions.len(),
                 "coarsest_level": max_level,
+                "target": a.target,
+                "culled_clusters": in_cut - clusters.len(),
                 "cut_seconds": cut_seconds,
             }))?
         );

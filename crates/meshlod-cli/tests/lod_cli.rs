@@ -176,6 +176,40 @@ fn dag_build_and_cut() {
         let info = ok(&meshlod(&["info", s(&out), "--json"]));
         assert_eq!(info["triangles"].as_u64(), Some(n));
     }
+    // Looking at the bunny from close with a narrow view: no more triangles than
+    // without a target; culled, fewer clusters; looking away, the coarsest cut.
+    let t = dir.path().join("t.ply");
+    let cut = |extra: &[&str]| {
+        let mut args = vec![
+            "dag",
+            "cut",
+            s(&mdag),
+            "--camera",
+            "0,0.1,0.3",
+            "-o",
+            s(&t),
+            "--json",
+        ];
+        args.extend_from_slice(extra);
+        ok(&meshlod(&args))
+    };
+    let all = cut(&["--fov", "10"]);
+    let aimed = cut(&["--fov", "10", "--target", "0.05,0.15,0"]);
+    let culled = cut(&["--fov", "10", "--target", "0.05,0.15,0", "--cull"]);
+    let away = cut(&["--target", "0,0.1,1"]);
+    let n = |r: &serde_json::Value| r["triangles"].as_u64().expect("triangles");
+    assert!(n(&aimed) <= n(&all), "{aimed} vs {all}");
+    assert!(n(&culled) < n(&aimed), "{culled} vs {aimed}");
+    assert!(culled["culled_clusters"].as_u64().expect("culled") > 0);
+    assert!(n(&away) < n(&aimed), "{away} vs {aimed}");
+    // A target at the camera gives no direction; --cull needs a target.
+    for extra in [&["--target", "0,0.1,0.3"][..], &["--cull"][..]] {
+        let mut args = vec!["dag", "cut", s(&mdag), "--camera", "0,0.1,0.3", "-o"];
+        let o = dir.path().join("u.ply");
+        args.push(s(&o));
+        args.extend_from_slice(extra);
+        assert_ne!(meshlod(&args).status.code(), Some(0), "{extra:?}");
+    }
     // A damaged file is a clean error naming it.
     let bad = dir.path().join("bad.mdag");
     let bytes = std::fs::read(&mdag).expect("read");

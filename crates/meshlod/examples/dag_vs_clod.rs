@@ -108,10 +108,10 @@ fn main() {
         // Time of one view-dependent cut, camera at twice the diagonal from the box.
         let (lo, hi) = m.bounding_box(true).expect("triangles");
         let center: [f64; 3] = std::array::from_fn(|k| 0.5 * f64::from(lo[k] + hi[k]));
-        let view = DagView {
-            position: [center[0], center[1], center[2] + 2.0 * diag],
-            screen: Screen::default(),
-        };
+        let view = DagView::new(
+            [center[0], center[1], center[2] + 2.0 * diag],
+            Screen::default(),
+        );
         let t = Instant::now();
         let mut chosen = 0;
         for _ in 0..100 {

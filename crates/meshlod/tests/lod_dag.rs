@@ -42,10 +42,7 @@ fn edge_faults(m: &Mesh) -> (usize, usize) {
 }
 
 fn view(position: [f64; 3]) -> DagView {
-    DagView {
-        position,
-        screen: Screen::default(),
-    }
+    DagView::new(position, Screen::default())
 }
 
 #[test]
@@ -149,6 +146,122 @@ fn a_near_camera_cut_is_smaller_than_a_uniform_one() {
         .map(|(_, chosen)| chosen.iter().map(|c| c.triangles.len()).sum::<usize>())
         .expect("the finest cut is within any budget");
     assert!(vd < uniform, "view-dependent {vd} vs uniform {uniform}");
+}
+
+#[test]
+fn a_view_direction_coarsens_what_is_out_of_view_and_keeps_the_cut_closed() {
+    let (_, dag) = sphere_dag();
+    let roots: usize = dag
+        .clusters
+        .iter()
+        .filter(|c| c.parent_error.is_infinite())
+        .map(|c| c.triangles.len())
+        .sum();
+    // Looking away from the sphere: nothing is in view, the cut is the roots.
+    let away = DagView {
+        target: Some([0.0, 0.0, 8.0]),
+        ..view([0.0, 0.0, 4.0])
+    };
+    let cut = dag.cut(&away);
+    assert!(cut
+        .iter()
+        .all(|&c| dag.clusters[c].parent_error.is_infinite()));
+    assert_eq!(dag.cut_mesh(&cut).triangles.len(), roots);
+    // Views of points of the sphere, near and far: closed, each cluster in view
+    // within the budget, and no more triangles than the same screen with every
+    // direction in view. Only groups wholly out of view can be coarsened (their
+    // spheres enclose their clusters'), so the narrow view far away gains, the
+    // others little or nothing. Culling (`visible`) keeps exactly the clusters whose
+    // spheres reach into the view.
+    let mut checked = 0;
+    for (camera, target, fov, fewer) in [
+        ([0.0, 0.0, 1.3], [0.3, 0.0, 0.95], 40.0, false),
+        ([0.0, 0.0, 1.3], [0.0, 0.0, 1.0], 60.0, false),
+        ([1.2, 0.6, 0.0], [0.8, 0.6, 0.0], 90.0, false),
+        ([0.0, 0.0, 3.0], [0.6, 0.0, 0.8], 20.0, false),
+        ([0.0, 0.0, 3.0], [0.0, 0.0, 0.0], 5.0, true),
+        ([0.0, 0.0, 6.0], [0.0, 0.0, 0.0], 60.0, false),
+    ] {
+        let everywhere = DagView::new(
+            camera,
+            Screen {
+                fov_degrees: fov,
+                ..Screen::default()
+            },
+        );
+        let v = DagView {
+            target: Some(target),
+            ..everywhere
+        };
+        let cut = dag.cut(&v);
+        let mesh = dag.cut_mesh(&cut);
+        let (open, _) = edge_faults(&mesh);
+        assert_eq!(open, 0, "{camera:?} to {target:?}: open edges (cracks)");
+        let axis: Vec<f64> = (0..3).map(|k| target[k] - camera[k]).collect();
+        let n = axis.iter().map(|x| x * x).sum::<f64>().sqrt();
+        let half_diagonal =
+            ((fov.to_radians() / 2.0).tan() * (1.0 + (16.0f64 / 9.0).powi(2)).sqrt()).atan();
+        for &c in &cut {
+            let c = &dag.clusters[c];
+            let rel: Vec<f64> = (0..3).map(|k| c.sphere.center[k] - camera[k]).collect();
+            let along = (0..3).map(|k| rel[k] * axis[k] / n).sum::<f64>();
+            let length = rel.iter().map(|x| x * x).sum::<f64>().sqrt();
+            // In view: the angle to the axis less the sphere's angular radius within
+            // the half-diagonal (tested with a margin, so the check does not hang on
+            // the cone test's exact edge).
+            let angle = (along / length).clamp(-1.0, 1.0).acos();
+            let spread = (c.sphere.radius / length).min(1.0).asin();
+            if angle - spread < half_diagonal * 0.99 && c.error > 0.0 {
+                checked += 1;
+                let near = length - c.sphere.radius;
+                assert!(near > 0.0);
+                assert!(v.screen.pixels(c.error, near) <= v.screen.pixel_error);
+            }
+        }
+        let all: usize = dag
+            .cut(&everywhere)
+            .iter()
+            .map(|&c| dag.clusters[c].triangles.len())
+            .sum();
+        let k = mesh.triangles.len();
+        assert!(
+            k <= all,
+            "{camera:?}: {k} triangles, {all} with every direction"
+        );
+        let seen = dag.visible(&v, &cut);
+        // The narrower views (40° or less) leave part of the sphere out.
+        assert!(
+            seen.len() < cut.len() || fov > 40.0,
+            "{camera:?}: all {} clusters kept",
+            cut.len()
+        );
+        for &c in &cut {
+            let s = &dag.clusters[c].sphere;
+            let rel: Vec<f64> = (0..3).map(|k| s.center[k] - camera[k]).collect();
+            let along = (0..3).map(|k| rel[k] * axis[k] / n).sum::<f64>();
+            let length = rel.iter().map(|x| x * x).sum::<f64>().sqrt();
+            let angle = (along / length).clamp(-1.0, 1.0).acos();
+            let spread = (s.radius / length).min(1.0).asin();
+            if angle - spread < half_diagonal * 0.99 {
+                assert!(
+                    seen.contains(&c),
+                    "{camera:?}: cluster {c} in view was culled"
+                );
+            } else if angle - spread > half_diagonal * 1.01 {
+                assert!(
+                    !seen.contains(&c),
+                    "{camera:?}: cluster {c} out of view kept"
+                );
+            }
+        }
+        if fewer {
+            assert!(
+                k < all,
+                "{camera:?}: {k} triangles, {all} with every direction"
+            );
+        }
+    }
+    assert!(checked > 0, "some clusters in view with an error");
 }
 
 #[test]

@@ -176,17 +176,78 @@ pub struct DagReport {
 pub struct DagView {
     /// Camera position, mesh units.
     pub position: [f64; 3],
+    /// A point the camera looks at, mesh units, or `None` for no view direction.
+    ///
+    /// With it, clusters whose spheres lie wholly outside the view cone (behind the
+    /// camera or beyond the corners of the screen, from `screen.fov_degrees` and
+    /// `screen.aspect`) count as showing no error, so the cut takes them as coarse as
+    /// the hierarchy allows; they are coarsened, not dropped, and the cut stays
+    /// closed. Clusters in view are judged as without it (error over the distance to
+    /// the sphere).
+    pub target: Option<[f64; 3]>,
     /// Screen and pixel budget.
     pub screen: super::Screen,
 }
 
+impl DagView {
+    /// A view from `position` with no view direction (every direction counts).
+    #[must_use]
+    pub fn new(position: [f64; 3], screen: super::Screen) -> Self {
+        Self {
+            position,
+            target: None,
+            screen,
+        }
+    }
+}
+
+/// The view axis and the cosine and sine of the cone around it that holds the whole
+/// screen (its half-diagonal angle), or `None` without a target (or a target at the
+/// camera).
+fn view_cone(view: &DagView) -> Option<([f64; 3], f64, f64)> {
+    let t = view.target?;
+    let d: [f64; 3] = std::array::from_fn(|k| t[k] - view.position[k]);
+    let n = dist(t, view.position);
+    if !(n > 0.0 && n.is_finite()) {
+        return None;
+    }
+    let axis = d.map(|x| x / n);
+    let half = (view.screen.fov_degrees.to_radians() / 2.0).tan();
+    let diagonal = (half * (1.0 + view.screen.aspect * view.screen.aspect).sqrt()).atan();
+    Some((axis, diagonal.cos(), diagonal.sin()))
+}
+
 /// Pixels covered by `error` on a sphere seen from `view` (the distance is to the
-/// sphere's nearest point, at least a millionth of its radius; inside it, infinite).
-fn projected(error: f64, sphere: &Sphere, view: &DagView) -> f64 {
+/// sphere's nearest point; a sphere holding the camera shows any error as
+/// infinite), or 0 for a sphere wholly outside the view `cone`. Never smaller for a
+/// larger error on a sphere that encloses this one, which keeps cuts crack-free.
+fn projected(
+    error: f64,
+    sphere: &Sphere,
+    view: &DagView,
+    cone: Option<([f64; 3], f64, f64)>,
+) -> f64 {
     if error.is_infinite() {
         return f64::INFINITY;
     }
-    let d = dist(sphere.center, view.position) - sphere.radius;
+    let length = dist(sphere.center, view.position);
+    if let Some((axis, cos, sin)) = cone {
+        let along: f64 = (0..3)
+            .map(|k| (sphere.center[k] - view.position[k]) * axis[k])
+            .sum();
+        let across = (length * length - along * along).max(0.0).sqrt();
+        // Distance from the centre to the solid cone: to its apex from the polar
+        // region behind it, else to its side (negative inside).
+        let to_cone = if along * cos + across * sin < 0.0 {
+            length
+        } else {
+            across * cos - along * sin
+        };
+        if to_cone > sphere.radius {
+            return 0.0;
+        }
+    }
+    let d = length - sphere.radius;
     if d <= 0.0 {
         return if error > 0.0 { f64::INFINITY } else { 0.0 };
     }
@@ -199,11 +260,28 @@ impl Dag {
     #[must_use]
     pub fn cut(&self, view: &DagView) -> Vec<usize> {
         let p = view.screen.pixel_error;
+        let cone = view_cone(view);
         (0..self.clusters.len())
             .filter(|&i| {
                 let c = &self.clusters[i];
-                projected(c.error, &c.sphere, view) <= p
-                    && projected(c.parent_error, &c.parent_sphere, view) > p
+                projected(c.error, &c.sphere, view, cone) <= p
+                    && projected(c.parent_error, &c.parent_sphere, view, cone) > p
+            })
+            .collect()
+    }
+
+    /// The clusters of `cut` that `view` can see: those whose spheres reach into its
+    /// view cone (all of them without a target). Frustum culling, as a renderer
+    /// does after choosing the cut: the result has holes where nothing is in view,
+    /// and is crack-free wherever something is.
+    #[must_use]
+    pub fn visible(&self, view: &DagView, cut: &[usize]) -> Vec<usize> {
+        let cone = view_cone(view);
+        cut.iter()
+            .copied()
+            .filter(|&c| {
+                let c = &self.clusters[c];
+                cone.is_none() || projected(1.0, &c.sphere, view, cone) > 0.0
             })
             .collect()
     }

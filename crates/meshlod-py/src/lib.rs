@@ -230,6 +230,10 @@ struct SimplifyReport {
     non_edge_contractions: usize,
     degenerate_removed: usize,
     duplicate_removed: usize,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    non_manifold_points_in: Option<usize>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    non_manifold_kept: Option<meshlod::collapse::NonManifoldPoints>,
     facing_flips: usize,
     retries: usize,
     fit_moved: usize,
@@ -352,6 +356,8 @@ fn simplify<'py>(
         non_edge_contractions: r.non_edge_contractions,
         degenerate_removed: r.degenerate_removed,
         duplicate_removed: r.duplicate_removed,
+        non_manifold_points_in: r.non_manifold_points_in,
+        non_manifold_kept: r.non_manifold_kept,
         facing_flips: r.facing_flips,
         retries: r.retries,
         fit_moved: r.fit_moved,

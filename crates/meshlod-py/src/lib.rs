@@ -415,11 +415,19 @@ struct MeasureReport {
     max_extent: f64,
     samples: u64,
     seconds: f64,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    appearance: Option<metrics::appearance::Appearance>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    appearance_seconds: Option<f64>,
 }
 
 /// Native `measure`: the report `dict`.
 #[pyfunction]
-#[pyo3(signature = (a_vertices, a_faces, b_vertices, b_faces, *, samples=None, seed=0, threads=None))]
+#[pyo3(signature = (
+    a_vertices, a_faces, b_vertices, b_faces, *, samples=None, seed=0, threads=None,
+    certify=true, appearance=true, a_normals=None, a_uvs=None, a_colors=None,
+    b_normals=None, b_uvs=None, b_colors=None
+))]
 #[allow(clippy::too_many_arguments)]
 fn measure<'py>(
     py: Python<'py>,
@@ -430,14 +438,22 @@ fn measure<'py>(
     samples: Option<i64>,
     seed: u64,
     threads: Option<i64>,
+    certify: bool,
+    appearance: bool,
+    a_normals: Option<&Bound<'py, PyAny>>,
+    a_uvs: Option<&Bound<'py, PyAny>>,
+    a_colors: Option<&Bound<'py, PyAny>>,
+    b_normals: Option<&Bound<'py, PyAny>>,
+    b_uvs: Option<&Bound<'py, PyAny>>,
+    b_colors: Option<&Bound<'py, PyAny>>,
 ) -> PyResult<Bound<'py, PyAny>> {
     let threads = count(threads, "threads")?;
     let samples = count(samples, "samples")?;
     if samples == Some(0) {
         return Err(value_error("samples=0: must be at least 1"));
     }
-    let (a, ..) = mesh_from(a_vertices, a_faces, "a_", None, None, None)?;
-    let (b, ..) = mesh_from(b_vertices, b_faces, "b_", None, None, None)?;
+    let (a, ..) = mesh_from(a_vertices, a_faces, "a_", a_normals, a_uvs, a_colors)?;
+    let (b, ..) = mesh_from(b_vertices, b_faces, "b_", b_normals, b_uvs, b_colors)?;
     for (name, m) in [("a", &a), ("b", &b)] {
         m.validate()
             .map_err(|e| value_error(format!("{name}: invalid mesh: {e}")))?;
@@ -448,12 +464,26 @@ fn measure<'py>(
     let options = SamplingOptions {
         samples,
         seed,
+        certify,
         ..SamplingOptions::default()
     };
     let start = Instant::now();
     let d = py
         .detach(|| in_pool(threads, || metrics::hausdorff(&a, &b, &options)))
         .map_err(value_error)?;
+    let seconds = start.elapsed().as_secs_f64();
+    let t1 = Instant::now();
+    let deviation = if appearance {
+        py.detach(|| {
+            in_pool(threads, || {
+                metrics::appearance::appearance(&a, &b, &options)
+            })
+        })
+        .map_err(value_error)?
+    } else {
+        None
+    };
+    let appearance_seconds = deviation.is_some().then(|| t1.elapsed().as_secs_f64());
     let relative = |scale: f64| {
         let s = d.scaled(scale);
         Relative {
@@ -476,7 +506,9 @@ fn measure<'py>(
         bbox_diagonal: d.bbox_diagonal,
         max_extent: d.max_extent,
         samples: d.a_to_b.samples + d.b_to_a.samples,
-        seconds: start.elapsed().as_secs_f64(),
+        seconds,
+        appearance: deviation,
+        appearance_seconds,
     };
     convert::report(py, &report)
 }

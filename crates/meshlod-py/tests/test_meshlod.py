@@ -420,5 +420,43 @@ def test_measure_same_as_cli(tmp_path, bunny):
     )
     cli_report = json.loads(run.stdout.strip().splitlines()[-1])
     report = meshlod.measure(v, f, s_v, s_f, samples=50_000)
-    for key in ["hausdorff", "mean", "rms", "a_to_b", "b_to_a", "relative_to_bbox_diagonal", "samples"]:
+    for key in ["hausdorff", "max_lower", "max_upper", "mean", "rms", "a_to_b", "b_to_a",
+                "relative_to_bbox_diagonal", "samples"]:
         assert report[key] == cli_report[key], key
+    assert report["max_lower"] <= report["max_upper"]
+    sampled = meshlod.measure(v, f, s_v, s_f, samples=50_000, certify=False)
+    assert sampled["max_upper"] is None
+    assert sampled["hausdorff"] <= report["hausdorff"]
+
+
+def test_measure_appearance_same_as_cli(tmp_path):
+    """A textured mesh against its simplification: the attribute deviation, as the
+    CLI reports it; absent without attributes or with appearance=False."""
+    exe = cli()
+    v, f, attrs = meshlod.read(SPOT)
+    small = meshlod.simplify(v, f, ratio=0.2, **attrs)
+    s_v, s_f, s_attrs = small[0], small[1], small.attributes
+    path = tmp_path / "spot-small.ply"
+    meshlod.write(path, s_v, s_f, **s_attrs)
+    # The reference as the CLI reads it (the same arrays written and read back).
+    ref = tmp_path / "spot.ply"
+    meshlod.write(ref, v, f, **attrs)
+    run = subprocess.run(
+        [str(exe), "measure", str(ref), str(path), "--json", "--samples", "20000"],
+        capture_output=True,
+        text=True,
+        check=True,
+    )
+    cli_report = json.loads(run.stdout.strip().splitlines()[-1])
+    rv, rf, ra = meshlod.read(ref)
+    sv, sf, sa = meshlod.read(path)
+    report = meshlod.measure(rv, rf, sv, sf, samples=20_000, a_attributes=ra, b_attributes=sa)
+    assert "uv" in report["appearance"]
+    assert report["appearance"] == cli_report["appearance"]
+    assert report["appearance"]["uv"]["max"] >= report["appearance"]["uv"]["mean"] > 0
+    assert "appearance" not in meshlod.measure(rv, rf, sv, sf, samples=20_000)
+    off = meshlod.measure(rv, rf, sv, sf, samples=20_000, a_attributes=ra, b_attributes=sa,
+                          appearance=False)
+    assert "appearance" not in off
+    with pytest.raises(ValueError):
+        meshlod.measure(rv, rf, sv, sf, a_attributes={"tangents": rv})

@@ -193,6 +193,10 @@ def measure(
     samples: Optional[int] = None,
     seed: int = 0,
     threads: Optional[int] = None,
+    certify: bool = True,
+    appearance: bool = True,
+    a_attributes: Optional[Dict[str, np.ndarray]] = None,
+    b_attributes: Optional[Dict[str, np.ndarray]] = None,
 ) -> Dict[str, Any]:
     """Metro-class distances between surface A (the reference) and surface B.
 
@@ -210,16 +214,33 @@ def measure(
             ``max(1_000_000, 10 * triangles)``.
         seed: seed of the face samples' placement.
         threads: at most this many threads (default: all cores).
+        certify: refine after sampling so that the true maximum lies in
+            ``[max_lower, max_upper]`` (``--no-certify`` of the CLI is ``False``:
+            ``max_upper`` is then ``None``).
+        appearance: also measure the attribute deviation (UV distance, normal
+            angle in degrees, colour difference) where both meshes carry the
+            attribute (``--no-appearance`` of the CLI is ``False``).
+        a_attributes, b_attributes: each mesh's ``normals``, ``uvs``, ``colors``
+            (a ``dict`` as :func:`read` returns; the keys optional).
 
     Returns:
-        ``dict`` with ``hausdorff``, ``mean``, ``rms`` (mesh units), ``a_to_b`` and
-        ``b_to_a`` (each ``max``, ``mean``, ``rms``, ``max_at``, ``max_closest``,
-        ``samples``), ``relative_to_bbox_diagonal``, ``relative_to_max_extent``,
-        ``bbox_diagonal``, ``max_extent``, ``samples``, ``seconds``.
+        ``dict`` with ``hausdorff``, ``max_lower``, ``max_upper``, ``mean``,
+        ``rms`` (mesh units), ``a_to_b`` and ``b_to_a`` (each ``max``,
+        ``max_lower``, ``max_upper``, ``mean``, ``rms``, ``max_at``,
+        ``max_closest``, ``samples``), ``relative_to_bbox_diagonal``,
+        ``relative_to_max_extent``, ``bbox_diagonal``, ``max_extent``,
+        ``samples``, ``seconds``; with attributes on both sides, ``appearance``
+        (``uv``, ``normal_deg``, ``color``: ``max`` and ``mean``; ``a_to_b``,
+        ``b_to_a``) and ``appearance_seconds``, as ``meshlod measure --json``.
 
     Raises:
         TypeError, ValueError: as :func:`simplify`; also a mesh without triangles.
     """
+    aa = a_attributes or {}
+    ba = b_attributes or {}
+    unknown = (set(aa) | set(ba)) - {"normals", "uvs", "colors"}
+    if unknown:
+        raise ValueError(f"unknown attribute(s) {sorted(unknown)}: normals, uvs, colors")
     return _meshlod.measure(
         _array(a_vertices),
         _array(a_faces),
@@ -228,6 +249,14 @@ def measure(
         samples=samples,
         seed=seed,
         threads=threads,
+        certify=certify,
+        appearance=appearance,
+        a_normals=_array(aa.get("normals")),
+        a_uvs=_array(aa.get("uvs")),
+        a_colors=_array(aa.get("colors")),
+        b_normals=_array(ba.get("normals")),
+        b_uvs=_array(ba.get("uvs")),
+        b_colors=_array(ba.get("colors")),
     )
 
 

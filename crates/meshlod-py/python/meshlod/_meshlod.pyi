@@ -34,6 +34,14 @@ def measure(
     samples: Optional[int] = None,
     seed: int = 0,
     threads: Optional[int] = None,
+    certify: bool = True,
+    appearance: bool = True,
+    a_normals: Optional[np.ndarray] = None,
+    a_uvs: Optional[np.ndarray] = None,
+    a_colors: Optional[np.ndarray] = None,
+    b_normals: Optional[np.ndarray] = None,
+    b_uvs: Optional[np.ndarray] = None,
+    b_colors: Optional[np.ndarray] = None,
 ) -> Dict[str, Any]: ...
 def read(path: str) -> Tuple[np.ndarray, np.ndarray, Dict[str, np.ndarray]]: ...
 def write(

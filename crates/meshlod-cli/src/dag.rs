@@ -136,6 +136,9 @@ fn cut(a: &CutArgs) -> Result<()> {
         fov_degrees: a.fov,
         aspect: a.width.map_or(16.0 / 9.0, |w| w / a.height),
     };
+    if a.width.is_some_and(|w| !(w > 0.0 && w.is_finite())) {
+        bail!("--width must be a positive number of pixels");
+    }
     screen.check()?;
     if a.target == Some(a.camera) {
         bail!("--target is the camera position: it gives no view direction");

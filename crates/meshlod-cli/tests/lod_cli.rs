@@ -202,8 +202,13 @@ fn dag_build_and_cut() {
     assert!(n(&culled) < n(&aimed), "{culled} vs {aimed}");
     assert!(culled["culled_clusters"].as_u64().expect("culled") > 0);
     assert!(n(&away) < n(&aimed), "{away} vs {aimed}");
-    // A target at the camera gives no direction; --cull needs a target.
-    for extra in [&["--target", "0,0.1,0.3"][..], &["--cull"][..]] {
+    // A target at the camera gives no direction; --cull needs a target; a width
+    // must be positive.
+    for extra in [
+        &["--target", "0,0.1,0.3"][..],
+        &["--cull"][..],
+        &["--width", "0"][..],
+    ] {
         let mut args = vec!["dag", "cut", s(&mdag), "--camera", "0,0.1,0.3", "-o"];
         let o = dir.path().join("u.ply");
         args.push(s(&o));

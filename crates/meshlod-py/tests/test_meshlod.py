@@ -406,19 +406,23 @@ def test_same_as_cli(tmp_path, args, kwargs):
         assert report[key] == cli_report[key], key
 
 
-def test_measure_same_as_cli(tmp_path, bunny):
-    exe = cli()
-    v, f = bunny
-    s_v, s_f, _ = meshlod.simplify(v, f, ratio=0.05)
-    path = tmp_path / "small.ply"
-    meshlod.write(path, s_v, s_f)
+def cli_measure(a: Path, b: Path, samples: int) -> dict:
+    """``meshlod measure A B --json --samples N`` of the CLI (or skip)."""
     run = subprocess.run(
-        [str(exe), "measure", str(BUNNY), str(path), "--json", "--samples", "50000"],
+        [str(cli()), "measure", str(a), str(b), "--json", "--samples", str(samples)],
         capture_output=True,
         text=True,
         check=True,
     )
-    cli_report = json.loads(run.stdout.strip().splitlines()[-1])
+    return json.loads(run.stdout.strip().splitlines()[-1])
+
+
+def test_measure_same_as_cli(tmp_path, bunny):
+    v, f = bunny
+    s_v, s_f, _ = meshlod.simplify(v, f, ratio=0.05)
+    path = tmp_path / "small.ply"
+    meshlod.write(path, s_v, s_f)
+    cli_report = cli_measure(BUNNY, path, 50_000)
     report = meshlod.measure(v, f, s_v, s_f, samples=50_000)
     for key in ["hausdorff", "max_lower", "max_upper", "mean", "rms", "a_to_b", "b_to_a",
                 "relative_to_bbox_diagonal", "samples"]:
@@ -432,7 +436,6 @@ def test_measure_same_as_cli(tmp_path, bunny):
 def test_measure_appearance_same_as_cli(tmp_path):
     """A textured mesh against its simplification: the attribute deviation, as the
     CLI reports it; absent without attributes or with appearance=False."""
-    exe = cli()
     v, f, attrs = meshlod.read(SPOT)
     small = meshlod.simplify(v, f, ratio=0.2, **attrs)
     s_v, s_f, s_attrs = small[0], small[1], small.attributes
@@ -441,13 +444,7 @@ def test_measure_appearance_same_as_cli(tmp_path):
     # The reference as the CLI reads it (the same arrays written and read back).
     ref = tmp_path / "spot.ply"
     meshlod.write(ref, v, f, **attrs)
-    run = subprocess.run(
-        [str(exe), "measure", str(ref), str(path), "--json", "--samples", "20000"],
-        capture_output=True,
-        text=True,
-        check=True,
-    )
-    cli_report = json.loads(run.stdout.strip().splitlines()[-1])
+    cli_report = cli_measure(ref, path, 20_000)
     rv, rf, ra = meshlod.read(ref)
     sv, sf, sa = meshlod.read(path)
     report = meshlod.measure(rv, rf, sv, sf, samples=20_000, a_attributes=ra, b_attributes=sa)

@@ -207,13 +207,14 @@ fn split(target: &Bvh, r: &Region) -> ([Region; 4], Hit, u64) {
     ([r0, r1, r2, r3], best, 7)
 }
 
-/// Certifies the maximum distance from the triangles `tris` (corner positions) to
-/// `target`, starting from the best sample so far (`lower`, found at `lower_at`).
+/// Certifies the maximum distance from the triangles `tris` (indices into `points`)
+/// to `target`, starting from the best sample so far (`lower`, found at `lower_at`).
 /// Spends at most `budget` closest-point queries on splitting; when the budget runs
 /// out, `upper` is the largest bound left, so the interval is still true, only wider.
 #[must_use]
 pub fn certify(
-    tris: &[[V3; 3]],
+    points: &[V3],
+    tris: &[[u32; 3]],
     target: &Bvh,
     lower: f64,
     lower_at: (V3, V3),
@@ -237,10 +238,12 @@ pub fn certify(
             queries: 0,
         };
     }
+    let mut used = vec![false; points.len()];
+    tris.iter().flatten().for_each(|&p| used[p as usize] = true);
     // The scale below which a gap is rounding: 1e-9 of the sampled surface's extent.
-    let (lo, hi) = tris.iter().flatten().fold(
+    let (lo, hi) = points.iter().zip(&used).filter(|(_, &u)| u).fold(
         ([f64::INFINITY; 3], [f64::NEG_INFINITY; 3]),
-        |(lo, hi), p| {
+        |(lo, hi), (p, _)| {
             (
                 std::array::from_fn(|k| lo[k].min(p[k])),
                 std::array::from_fn(|k| hi[k].max(p[k])),
@@ -249,28 +252,42 @@ pub fn certify(
     );
     let floor = 1e-9 * triangle::dist2(lo, hi).sqrt();
 
-    // Every triangle of the sampled surface as a region, in parallel (in order).
+    // Every point once (a point has about six triangles), then every triangle as a
+    // region, in parallel (in order).
     const CHUNK: usize = 1024;
+    let hits: Vec<Option<Hit>> = points
+        .par_chunks(CHUNK)
+        .zip(used.par_chunks(CHUNK))
+        .flat_map_iter(|(ps, us)| {
+            let mut hint = None;
+            ps.iter()
+                .zip(us)
+                .map(|(&p, &u)| {
+                    u.then(|| {
+                        let q = query(target, p, hint);
+                        hint = Some(q.tri);
+                        q
+                    })
+                })
+                .collect::<Vec<_>>()
+        })
+        .collect();
+    let corner = |p: u32| hits[p as usize].expect("every corner's point is used");
     let firsts: Vec<(Vec<Region>, Hit)> = tris
         .par_chunks(CHUNK)
         .map(|chunk| {
-            let mut hint = None;
             let mut local = best;
-            let mut out = Vec::new();
-            for v in chunk {
-                let h: [Hit; 3] = std::array::from_fn(|i| {
-                    let q = query(target, v[i], hint);
-                    hint = Some(q.tri);
-                    q
-                });
-                let (r, hc) = region(target, *v, h);
+            let mut out = Vec::with_capacity(chunk.len());
+            for t in chunk {
+                let h = t.map(corner);
+                let (r, hc) = region(target, h.map(|x| x.at), h);
                 local = h.into_iter().chain([hc]).fold(local, better);
                 out.push(r);
             }
             (out, local)
         })
         .collect();
-    let mut queries = 4 * tris.len() as u64;
+    let mut queries = (used.iter().filter(|&&u| u).count() + tris.len()) as u64;
     for (_, h) in &firsts {
         best = better(best, *h);
     }

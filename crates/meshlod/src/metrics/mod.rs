@@ -488,12 +488,10 @@ pub fn one_sided(mesh: &Mesh, target: &Bvh, options: &SamplingOptions) -> OneSid
         samples: total.n,
     };
     if options.certify {
-        let tris: Vec<[V3; 3]> = points
-            .iter()
-            .map(|t| [pos(t[0]), pos(t[1]), pos(t[2])])
-            .collect();
+        let at: Vec<V3> = (0..weld.point_count() as u32).map(pos).collect();
         let c = certify::certify(
-            &tris,
+            &at,
+            &points,
             target,
             out.max,
             (out.max_at, out.max_closest),

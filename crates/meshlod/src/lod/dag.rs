@@ -204,7 +204,7 @@ impl DagView {
 /// The view axis and the cosine and sine of the cone around it that holds the whole
 /// screen (its half-diagonal angle), or `None` without a target (or a target at the
 /// camera).
-fn view_cone(view: &DagView) -> Option<([f64; 3], f64, f64)> {
+fn view_cone(view: &DagView) -> Option<Cone> {
     let t = view.target?;
     let d: [f64; 3] = std::array::from_fn(|k| t[k] - view.position[k]);
     let n = dist(t, view.position);
@@ -217,37 +217,41 @@ fn view_cone(view: &DagView) -> Option<([f64; 3], f64, f64)> {
     Some((axis, diagonal.cos(), diagonal.sin()))
 }
 
+/// The view axis and the cosine and sine of its half-diagonal angle (from
+/// [`view_cone`]).
+type Cone = ([f64; 3], f64, f64);
+
+/// Whether `sphere` reaches into the solid `cone` with its apex at `eye` (always,
+/// without a cone).
+fn in_view(sphere: &Sphere, eye: [f64; 3], cone: Option<Cone>) -> bool {
+    let Some((axis, cos, sin)) = cone else {
+        return true;
+    };
+    let length = dist(sphere.center, eye);
+    let along: f64 = (0..3).map(|k| (sphere.center[k] - eye[k]) * axis[k]).sum();
+    let across = (length * length - along * along).max(0.0).sqrt();
+    // Distance from the centre to the cone: to its apex from the polar region
+    // behind it, else to its side (negative inside).
+    let to_cone = if along * cos + across * sin < 0.0 {
+        length
+    } else {
+        across * cos - along * sin
+    };
+    to_cone <= sphere.radius
+}
+
 /// Pixels covered by `error` on a sphere seen from `view` (the distance is to the
 /// sphere's nearest point; a sphere holding the camera shows any error as
 /// infinite), or 0 for a sphere wholly outside the view `cone`. Never smaller for a
 /// larger error on a sphere that encloses this one, which keeps cuts crack-free.
-fn projected(
-    error: f64,
-    sphere: &Sphere,
-    view: &DagView,
-    cone: Option<([f64; 3], f64, f64)>,
-) -> f64 {
+fn projected(error: f64, sphere: &Sphere, view: &DagView, cone: Option<Cone>) -> f64 {
     if error.is_infinite() {
         return f64::INFINITY;
     }
-    let length = dist(sphere.center, view.position);
-    if let Some((axis, cos, sin)) = cone {
-        let along: f64 = (0..3)
-            .map(|k| (sphere.center[k] - view.position[k]) * axis[k])
-            .sum();
-        let across = (length * length - along * along).max(0.0).sqrt();
-        // Distance from the centre to the solid cone: to its apex from the polar
-        // region behind it, else to its side (negative inside).
-        let to_cone = if along * cos + across * sin < 0.0 {
-            length
-        } else {
-            across * cos - along * sin
-        };
-        if to_cone > sphere.radius {
-            return 0.0;
-        }
+    if !in_view(sphere, view.position, cone) {
+        return 0.0;
     }
-    let d = length - sphere.radius;
+    let d = dist(sphere.center, view.position) - sphere.radius;
     if d <= 0.0 {
         return if error > 0.0 { f64::INFINITY } else { 0.0 };
     }
@@ -279,10 +283,7 @@ impl Dag {
         let cone = view_cone(view);
         cut.iter()
             .copied()
-            .filter(|&c| {
-                let c = &self.clusters[c];
-                cone.is_none() || projected(1.0, &c.sphere, view, cone) > 0.0
-            })
+            .filter(|&c| in_view(&self.clusters[c].sphere, view.position, cone))
             .collect()
     }
 

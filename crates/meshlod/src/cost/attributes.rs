@@ -290,41 +290,11 @@ impl WedgeQuadrics {
     }
 
     /// The change of the reduced quadric when the wedge pairs `pairs` (`(a's
-    /// wedge, b's wedge)` on the triangles of an edge; [`DEAD`] where none) merge:
-    /// the Schur terms of the separate wedges added back, that of each merged
-    /// group subtracted.
-    pub(crate) fn correction(&self, pairs: &[(u32, u32); 2]) -> Quadric {
-        let mut q = Quadric::ZERO;
-        let (p0, p1) = (pairs[0], pairs[1]);
-        if p0.0 == DEAD || p0.1 == DEAD {
-            return q;
-        }
-        let second = p1.0 != DEAD && p1.1 != DEAD && p1 != p0;
-        let linked = second && (p0.0 == p1.0 || p0.1 == p1.1 || p0.0 == p1.1 || p0.1 == p1.0);
-        if linked {
-            // One group: the distinct wedges of both pairs.
-            let mut ids = [p0.0, p0.1, DEAD, DEAD];
-            let mut n = 2;
-            for x in [p1.0, p1.1] {
-                if !ids[..n].contains(&x) {
-                    ids[n] = x;
-                    n += 1;
-                }
-            }
-            self.group_into(&ids[..n], &mut q);
-        } else {
-            self.group_into(&[p0.0, p0.1], &mut q);
-            if second {
-                self.group_into(&[p1.0, p1.1], &mut q);
-            }
-        }
-        q
-    }
-
-    /// [`Self::correction`] for any number of wedge pairs (the triangles of a
-    /// non-manifold edge, one per sheet): the wedges linked through the pairs form
-    /// groups, each merged as one.
-    pub(crate) fn correction_all(&self, pairs: &[(u32, u32)]) -> Quadric {
+    /// wedge, b's wedge)` on the triangles of an edge, two on a manifold edge, one
+    /// per sheet on a non-manifold one; [`DEAD`] where none) merge: the wedges
+    /// linked through the pairs form groups; the Schur terms of the separate wedges
+    /// are added back, that of each merged group subtracted.
+    pub(crate) fn correction(&self, pairs: &[(u32, u32)]) -> Quadric {
         let mut q = Quadric::ZERO;
         // Distinct wedges and a union-find over them (at most two per pair).
         let mut ids = [DEAD; 2 * crate::collapse::MAX_SHEETS];
@@ -375,20 +345,6 @@ impl WedgeQuadrics {
         q
     }
 
-    /// [`Self::merge`] for any number of wedge pairs.
-    pub(crate) fn merge_all(&mut self, map: &[(u32, u32)]) {
-        for &(wu, wv) in map {
-            if wu == DEAD || wv == DEAD || wu == wv {
-                continue;
-            }
-            let (a, b) = (wu as usize * self.stride, wv as usize * self.stride);
-            for k in 0..self.stride {
-                self.data[b + k] += self.data[a + k];
-                self.data[a + k] = 0.0;
-            }
-        }
-    }
-
     /// Adds to `q` the Schur terms of `members` apart minus that of their sum.
     fn group_into(&self, members: &[u32], q: &mut Quadric) {
         if members.len() < 2 || members[0] == members[1] && members.len() == 2 {
@@ -407,9 +363,10 @@ impl WedgeQuadrics {
 
     /// After a collapse that merged `u`'s wedges into `v`'s by `map` (`(u's wedge,
     /// v's wedge)`): adds the merged wedges' sums into the survivors'.
-    pub(crate) fn merge(&mut self, map: &[(u32, u32); 2]) {
-        for (i, &(wu, wv)) in map.iter().enumerate() {
-            if wu == DEAD || wv == DEAD || wu == wv || (i == 1 && map[0] == map[1]) {
+    pub(crate) fn merge(&mut self, map: &[(u32, u32)]) {
+        for &(wu, wv) in map {
+            // (A pair met again finds the removed wedge already emptied.)
+            if wu == DEAD || wv == DEAD || wu == wv {
                 continue;
             }
             let (a, b) = (wu as usize * self.stride, wv as usize * self.stride);

@@ -165,7 +165,7 @@ impl Qem {
                 let mut pairs =
                     [(crate::collapse::DEAD, crate::collapse::DEAD); crate::collapse::MAX_SHEETS];
                 let n = surface.edge_wedges_all(a, b, &mut pairs);
-                q.add(&w.correction_all(&pairs[..n]));
+                q.add(&w.correction(&pairs[..n]));
             } else {
                 q.add(&w.correction(&surface.edge_wedges(a, b)));
             }
@@ -462,9 +462,9 @@ impl CostModel for Qem {
             if !record.non_edge && record.removed_count > 2 {
                 // Along a non-manifold edge: every sheet's wedges merge.
                 let map = surface.last_wedge_map_all();
-                let c = w.correction_all(map);
+                let c = w.correction(map);
                 self.quadrics[record.kept as usize].add(&c);
-                w.merge_all(map);
+                w.merge(map);
             } else if !record.non_edge {
                 let map = surface.last_wedge_map();
                 let c = w.correction(&map);

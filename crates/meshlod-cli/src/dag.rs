@@ -23,8 +23,8 @@ pub enum DagCommand {
 /// Arguments of `meshlod dag build`.
 #[derive(Debug, clap::Args)]
 pub struct BuildArgs {
-    /// Input mesh (any format meshlod reads; a scene is flattened, attributes are not
-    /// carried).
+    /// Input mesh (any format meshlod reads; a scene is flattened; normals, UVs,
+    /// colours and materials are carried into every cut).
     pub input: PathBuf,
     /// Output `.mdag` file.
     #[arg(short, long)]

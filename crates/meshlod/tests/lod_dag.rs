@@ -322,3 +322,104 @@ fn the_hierarchy_is_the_same_on_any_number_of_threads() {
     };
     assert_eq!(on(1), on(3));
 }
+
+/// `m` with its vertices welded by position (the topology of a seamed mesh).
+fn welded(m: &Mesh) -> Mesh {
+    let mut first: HashMap<[u32; 3], u32> = HashMap::new();
+    let ids: Vec<u32> = m
+        .positions
+        .iter()
+        .enumerate()
+        .map(|(i, p)| *first.entry(p.map(f32::to_bits)).or_insert(i as u32))
+        .collect();
+    Mesh::from_triangles(
+        m.positions.clone(),
+        m.triangles
+            .iter()
+            .map(|t| t.map(|v| ids[v as usize]))
+            .collect(),
+    )
+}
+
+/// The textured cow (UV seams: vertices on either side of a seam share a
+/// position), in two groups by triangle index, as a glTF asset with two materials.
+fn spot_with_groups() -> Mesh {
+    let mut mesh = meshlod::io::read_mesh(common::data_dir().join("spot.obj")).expect("spot");
+    let n = mesh.triangles.len();
+    mesh.groups = Some((0..n).map(|i| u32::from(i >= n / 2)).collect());
+    mesh.group_names = vec!["hide".into(), "horns".into()];
+    mesh
+}
+
+#[test]
+fn attributes_and_groups_are_carried_and_seams_do_not_crack() {
+    let mesh = spot_with_groups();
+    assert!(mesh.attributes.uv0.is_some());
+    let (open_in, _) = edge_faults(&welded(&mesh));
+    assert_eq!(open_in, 0, "the cow is closed by positions");
+    let (dag, report) = build_dag(&mesh, &DagOptions::default()).expect("dag");
+    assert!(report.roots <= 2, "{report:?}");
+    assert_eq!(
+        dag.attributes.uv0.as_ref().map(Vec::len),
+        Some(dag.positions.len())
+    );
+    assert_eq!(dag.group_names.as_deref().map(<[String]>::len), Some(2));
+    let mut coarser = usize::MAX;
+    for d in [0.5, 2.0, 8.0, 30.0, 1e4] {
+        let cut = dag.cut(&view([0.0, 0.3, d]));
+        let m = dag.cut_mesh(&cut);
+        m.validate().expect("a valid mesh");
+        let uv = m.attributes.uv0.as_ref().expect("UVs carried");
+        assert_eq!(uv.len(), m.positions.len());
+        assert!(uv.iter().flatten().all(|x| x.is_finite()));
+        let groups = m.groups.as_ref().expect("groups carried");
+        assert_eq!(groups.len(), m.triangles.len());
+        assert!(groups.iter().all(|&g| g < 2));
+        assert_eq!(m.group_names, ["hide", "horns"]);
+        // Borders between groups of the hierarchy are locked by position, so the
+        // vertices on either side of a UV seam stay together: no cracks.
+        let (open, _) = edge_faults(&welded(&m));
+        assert_eq!(open, 0, "at {d}: open edges (cracks)");
+        assert!(m.triangles.len() <= coarser);
+        coarser = m.triangles.len();
+    }
+    assert!(coarser < mesh.triangles.len() / 10, "far away: {coarser}");
+}
+
+#[test]
+fn mdag_files_with_attributes_round_trip_and_refuse_damage() {
+    let (dag, _) = build_dag(&spot_with_groups(), &DagOptions::default()).expect("dag");
+    let bytes = write_mdag(&dag);
+    assert_eq!(u32::from_le_bytes(bytes[12..16].try_into().expect("4")), 2);
+    assert_eq!(read_mdag(&bytes).expect("reads back"), dag);
+    for cut in [
+        20,
+        40,
+        12 * dag.positions.len() + 40,
+        bytes.len() / 2,
+        bytes.len() - 1,
+    ] {
+        let e = read_mdag(&bytes[..cut]).expect_err("truncated");
+        assert!(e.offset as usize <= cut, "{e}");
+    }
+    // The attribute mask right after the positions: an unknown bit.
+    let mask_at = 32 + 12 * dag.positions.len();
+    let mut bad = bytes.clone();
+    bad[mask_at + 3] = 0x80;
+    assert!(read_mdag(&bad)
+        .expect_err("mask")
+        .message
+        .contains("unknown bits"));
+    // The last triangle's group id out of range.
+    let mut oob = bytes;
+    let n = oob.len();
+    oob[n - 4..].copy_from_slice(&7u32.to_le_bytes());
+    assert!(read_mdag(&oob)
+        .expect_err("group out of range")
+        .message
+        .contains("group id 7"));
+    // A hierarchy without attributes or groups is still written as version 1.
+    let (plain, _) = build_dag(&generate::icosphere(2), &DagOptions::default()).expect("dag");
+    let b = write_mdag(&plain);
+    assert_eq!(u32::from_le_bytes(b[12..16].try_into().expect("4")), 1);
+}

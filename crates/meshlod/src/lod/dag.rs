@@ -32,7 +32,7 @@
 //! 81,920-triangle sphere that happens at two edges of the coarsest cuts.)
 
 use crate::decimate::NoObserver;
-use crate::mesh::{Mesh, Weld};
+use crate::mesh::{Mesh, VertexAttributes, Weld};
 use crate::simplify::{simplify_observed, SimplifyError, SimplifyOptions};
 
 /// Options of [`build_dag`].
@@ -131,6 +131,9 @@ pub struct Cluster {
     pub level: u32,
     /// Its triangles, as indices into [`Dag::positions`].
     pub triangles: Vec<[u32; 3]>,
+    /// Per triangle, its group (material) id into [`Dag::group_names`]; empty when
+    /// the input had no groups.
+    pub groups: Vec<u32>,
     /// Its own error (mesh units): that of the group simplification that made it.
     pub error: f64,
     /// Its own bounds: those of that group (its own triangles' for an input cluster).
@@ -141,11 +144,18 @@ pub struct Cluster {
     pub parent_sphere: Sphere,
 }
 
-/// A cluster hierarchy: shared positions and clusters of every level.
+/// A cluster hierarchy: shared vertices and clusters of every level.
 #[derive(Debug, Clone, PartialEq, Default)]
 pub struct Dag {
-    /// Positions of every level's vertices (the input's first, welded).
+    /// Positions of every level's vertices (the input's first: welded when it has
+    /// no attributes, as they are when it has).
     pub positions: Vec<[f32; 3]>,
+    /// The vertices' attributes (normals, UVs, colours…, as the input had them;
+    /// a simplified group's new vertices get the simplifier's values).
+    pub attributes: VertexAttributes,
+    /// Names of the groups (materials) the clusters' triangles refer to; `None`
+    /// when the input had no groups.
+    pub group_names: Option<Vec<String>>,
     /// The clusters.
     pub clusters: Vec<Cluster>,
 }
@@ -287,31 +297,52 @@ impl Dag {
             .collect()
     }
 
-    /// The mesh of a cut (its vertices compacted).
+    /// The mesh of a cut (its vertices compacted), with the hierarchy's
+    /// attributes and groups.
     #[must_use]
     pub fn cut_mesh(&self, clusters: &[usize]) -> Mesh {
         let mut remap = vec![u32::MAX; self.positions.len()];
-        let mut positions = Vec::new();
+        let mut used: Vec<u32> = Vec::new();
         let mut triangles = Vec::new();
+        let mut groups = Vec::new();
         for &c in clusters {
-            for t in &self.clusters[c].triangles {
+            let cl = &self.clusters[c];
+            for t in &cl.triangles {
                 triangles.push(t.map(|v| {
                     let r = &mut remap[v as usize];
                     if *r == u32::MAX {
-                        *r = positions.len() as u32;
-                        positions.push(self.positions[v as usize]);
+                        *r = used.len() as u32;
+                        used.push(v);
                     }
                     *r
                 }));
             }
+            groups.extend_from_slice(&cl.groups);
         }
-        Mesh::from_triangles(positions, triangles)
+        let mut mesh = Mesh::from_triangles(
+            used.iter().map(|&v| self.positions[v as usize]).collect(),
+            triangles,
+        );
+        mesh.attributes = self.attributes.gather(&used);
+        if let Some(names) = &self.group_names {
+            if groups.len() == mesh.triangles.len() {
+                mesh.groups = Some(groups);
+                mesh.group_names = names.clone();
+            }
+        }
+        mesh
     }
 }
 
 /// Splits `tris` (indices into `positions`) into runs of at most `size` triangles
-/// along the Morton order of their centroids (within `tris`' own box).
-fn split(positions: &[[f32; 3]], tris: &[[u32; 3]], size: usize) -> Vec<Vec<[u32; 3]>> {
+/// along the Morton order of their centroids (within `tris`' own box), each with
+/// its triangles' `groups` (when there are: one per triangle, else empty).
+fn split(
+    positions: &[[f32; 3]],
+    tris: &[[u32; 3]],
+    groups: &[u32],
+    size: usize,
+) -> Vec<(Vec<[u32; 3]>, Vec<u32>)> {
     let centroid = |t: &[u32; 3]| -> [f64; 3] {
         std::array::from_fn(|k| {
             t.iter()
@@ -323,9 +354,17 @@ fn split(positions: &[[f32; 3]], tris: &[[u32; 3]], size: usize) -> Vec<Vec<[u32
     let keys = morton_keys(&tris.iter().map(centroid).collect::<Vec<_>>());
     let mut order: Vec<usize> = (0..tris.len()).collect();
     order.sort_by_key(|&i| (keys[i], i));
+    let grouped = groups.len() == tris.len();
     order
         .chunks(size.max(1))
-        .map(|c| c.iter().map(|&i| tris[i]).collect())
+        .map(|c| {
+            let g = if grouped {
+                c.iter().map(|&i| groups[i]).collect()
+            } else {
+                Vec::new()
+            };
+            (c.iter().map(|&i| tris[i]).collect(), g)
+        })
         .collect()
 }
 
@@ -350,8 +389,10 @@ fn morton_keys(points: &[[f64; 3]]) -> Vec<u32> {
         .collect()
 }
 
-/// Builds the cluster hierarchy of `mesh` (positions welded exactly first;
-/// attributes are not carried).
+/// Builds the cluster hierarchy of `mesh`. Without attributes its positions are
+/// welded exactly first; with attributes (normals, UVs, colours…) its vertices
+/// are kept, so seams stay, and every level carries them (the simplifier solves
+/// new vertices' values); triangle groups (materials) are carried too.
 ///
 /// # Errors
 /// [`SimplifyError`] when the mesh does not validate or an option is out of range
@@ -371,31 +412,55 @@ pub fn build_dag(mesh: &Mesh, options: &DagOptions) -> Result<(Dag, DagReport), 
         }
     }
     let weld = Weld::exact(&mesh.positions);
-    let mut dag = Dag {
-        positions: weld
-            .representative
-            .iter()
-            .map(|&v| mesh.positions[v as usize])
-            .collect(),
-        clusters: Vec::new(),
+    let keep_vertices = !mesh.attributes.is_empty();
+    let mut dag = if keep_vertices {
+        Dag {
+            positions: mesh.positions.clone(),
+            attributes: mesh.attributes.clone(),
+            group_names: None,
+            clusters: Vec::new(),
+        }
+    } else {
+        Dag {
+            positions: weld
+                .representative
+                .iter()
+                .map(|&v| mesh.positions[v as usize])
+                .collect(),
+            ..Dag::default()
+        }
     };
-    let tris: Vec<[u32; 3]> = mesh
-        .triangles
-        .iter()
-        .map(|t| t.map(|v| weld.point_of[v as usize]))
-        .filter(|t| t[0] != t[1] && t[1] != t[2] && t[0] != t[2])
-        .collect();
+    // Triangles degenerate after welding go (the simplifier would drop them).
+    let mut tris: Vec<[u32; 3]> = Vec::with_capacity(mesh.triangles.len());
+    let mut groups: Vec<u32> = Vec::new();
+    for (i, t) in mesh.triangles.iter().enumerate() {
+        let w = t.map(|v| weld.point_of[v as usize]);
+        if w[0] == w[1] || w[1] == w[2] || w[0] == w[2] {
+            continue;
+        }
+        tris.push(if keep_vertices { *t } else { w });
+        if let Some(g) = &mesh.groups {
+            groups.push(g[i]);
+        }
+    }
+    if mesh.groups.is_some() {
+        let count = groups.iter().max().map_or(0, |&g| g as usize + 1);
+        let mut names = mesh.group_names.clone();
+        names.resize_with(names.len().max(count), String::new);
+        dag.group_names = Some(names);
+    }
     let mut report = DagReport {
         triangles: tris.len(),
         ..DagReport::default()
     };
     let mut open: Vec<usize> = Vec::new();
-    for c in split(&dag.positions, &tris, options.cluster_size) {
+    for (c, g) in split(&dag.positions, &tris, &groups, options.cluster_size) {
         let sphere = Sphere::around(c.iter().flatten().map(|&v| dag.positions[v as usize]));
         open.push(dag.clusters.len());
         dag.clusters.push(Cluster {
             level: 0,
             triangles: c,
+            groups: g,
             error: 0.0,
             sphere,
             parent_error: f64::INFINITY,
@@ -435,21 +500,30 @@ fn round(
     level: u32,
 ) -> Result<(Vec<usize>, usize, usize), SimplifyError> {
     let groups = group_clusters(dag, open, options.group_size);
-    // How many groups use each vertex: those used by two or more are locked.
+    // How many groups use each point (a position: with attributes, the vertices
+    // on either side of a seam are one point): the vertices of points used by
+    // two or more groups are locked.
+    let point_of: Option<Vec<u32>> =
+        (!dag.attributes.is_empty()).then(|| Weld::exact(&dag.positions).point_of);
+    let point = |v: u32| point_of.as_ref().map_or(v, |p| p[v as usize]) as usize;
     let mut owner = vec![u32::MAX; dag.positions.len()];
-    let mut shared = vec![false; dag.positions.len()];
+    let mut shared_point = vec![false; dag.positions.len()];
     for (g, members) in groups.iter().enumerate() {
         for &c in members {
             for &v in dag.clusters[c].triangles.iter().flatten() {
-                let o = &mut owner[v as usize];
+                let o = &mut owner[point(v)];
                 if *o == u32::MAX {
                     *o = g as u32;
                 } else if *o != g as u32 {
-                    shared[v as usize] = true;
+                    shared_point[point(v)] = true;
                 }
             }
         }
     }
+    let shared: Vec<bool> = (0..dag.positions.len() as u32)
+        .map(|v| shared_point[point(v)])
+        .collect();
+    drop(shared_point);
     // The groups are simplified in parallel (each on one thread), then their
     // results applied in group order, so the hierarchy is the same on any number
     // of threads.
@@ -593,10 +667,20 @@ fn simplify_group(
     if n < 4 {
         return Ok(None);
     }
-    let group = Mesh::from_triangles(
+    let mut group = Mesh::from_triangles(
         globals.iter().map(|&v| dag.positions[v as usize]).collect(),
         triangles,
     );
+    group.attributes = dag.attributes.gather(&globals);
+    if let Some(names) = &dag.group_names {
+        group.groups = Some(
+            members
+                .iter()
+                .flat_map(|&c| dag.clusters[c].groups.iter().copied())
+                .collect(),
+        );
+        group.group_names = names.clone();
+    }
     let locked: Vec<bool> = globals.iter().map(|&v| shared[v as usize]).collect();
     let mut o = options.simplify.clone();
     o.ratio = None;
@@ -605,7 +689,13 @@ fn simplify_group(
     o.locked_vertices = Some(locked);
     o.chunks = false;
     o.threads = Some(1);
-    let result = simplify_observed(&group, &o, &mut NoObserver)?;
+    let mut result = simplify_observed(&group, &o, &mut NoObserver)?;
+    if result.mesh.triangles.len() * 4 > n * 3 && !group.attributes.is_empty() && !o.permissive {
+        // Seams (UV, normal creases, materials) can leave a group no legal
+        // collapse: then collapses may cross them, paying their attribute cost.
+        o.permissive = true;
+        result = simplify_observed(&group, &o, &mut NoObserver)?;
+    }
     if result.mesh.triangles.len() * 4 > n * 3 {
         return Ok(None);
     }
@@ -623,29 +713,38 @@ fn apply_group(
     level: u32,
 ) -> Vec<usize> {
     let Simplified { globals, result: s } = group;
-    // Back to shared positions: a vertex still where its source was keeps its id
-    // (every locked vertex does), a moved one is new.
-    let ids: Vec<u32> = s
-        .mesh
-        .positions
-        .iter()
-        .zip(&s.vertex_source)
-        .map(|(p, &src)| {
-            let g = globals[src as usize];
-            if dag.positions[g as usize] == *p {
+    // Back to shared vertices: a vertex still where its source was, with the same
+    // attributes, keeps its id (every locked vertex does), a changed one is new.
+    let mut fresh: Vec<u32> = Vec::new();
+    let ids: Vec<u32> = (0..s.mesh.positions.len())
+        .map(|i| {
+            let g = globals[s.vertex_source[i] as usize];
+            let same = dag.positions[g as usize] == s.mesh.positions[i]
+                && same_attributes(&dag.attributes, g as usize, &s.mesh.attributes, i);
+            if same {
                 g
             } else {
-                dag.positions.push(*p);
-                (dag.positions.len() - 1) as u32
+                fresh.push(i as u32);
+                (dag.positions.len() + fresh.len() - 1) as u32
             }
         })
         .collect();
+    let n_before = dag.positions.len();
+    dag.positions
+        .extend(fresh.iter().map(|&i| s.mesh.positions[i as usize]));
+    dag.attributes
+        .append(n_before, &s.mesh.attributes.gather(&fresh), fresh.len());
     let tris: Vec<[u32; 3]> = s
         .mesh
         .triangles
         .iter()
         .map(|t| t.map(|v| ids[v as usize]))
         .collect();
+    let tri_groups: Vec<u32> = if dag.group_names.is_some() {
+        s.mesh.groups.clone().unwrap_or_else(|| vec![0; tris.len()])
+    } else {
+        Vec::new()
+    };
     let child_error = members
         .iter()
         .map(|&c| dag.clusters[c].error)
@@ -658,11 +757,12 @@ fn apply_group(
         dag.clusters[c].parent_sphere = sphere;
     }
     let mut made = Vec::new();
-    for c in split(&dag.positions, &tris, options.cluster_size) {
+    for (c, g) in split(&dag.positions, &tris, &tri_groups, options.cluster_size) {
         made.push(dag.clusters.len());
         dag.clusters.push(Cluster {
             level,
             triangles: c,
+            groups: g,
             error,
             sphere,
             parent_error: f64::INFINITY,
@@ -672,10 +772,36 @@ fn apply_group(
     made
 }
 
+/// Whether vertex `i` of `a` and vertex `j` of `b` have the same attribute
+/// values (streams present in one only count as different).
+fn same_attributes(a: &VertexAttributes, i: usize, b: &VertexAttributes, j: usize) -> bool {
+    fn eq<T: PartialEq>(x: &Option<Vec<T>>, i: usize, y: &Option<Vec<T>>, j: usize) -> bool {
+        match (x, y) {
+            (None, None) => true,
+            (Some(x), Some(y)) => x.get(i).is_some() && x.get(i) == y.get(j),
+            _ => false,
+        }
+    }
+    eq(&a.normals, i, &b.normals, j)
+        && eq(&a.tangents, i, &b.tangents, j)
+        && eq(&a.uv0, i, &b.uv0, j)
+        && eq(&a.uv1, i, &b.uv1, j)
+        && eq(&a.colors, i, &b.colors, j)
+        && eq(&a.joints, i, &b.joints, j)
+        && eq(&a.weights, i, &b.weights, j)
+}
+
 /// The first bytes of a `.mdag` file.
 pub const MDAG_MAGIC: &[u8; 12] = b"MESHLOD-DAG\0";
-/// The `.mdag` format version this build writes and reads.
-pub const MDAG_VERSION: u32 = 1;
+/// The `.mdag` format version this build writes for a hierarchy with attributes
+/// or groups (it writes [`MDAG_VERSION_PLAIN`] for one without, and reads both).
+pub const MDAG_VERSION: u32 = 2;
+/// The `.mdag` format version of a hierarchy with neither attributes nor groups.
+pub const MDAG_VERSION_PLAIN: u32 = 1;
+
+/// Bits of the attribute mask of a version-2 file, in stream order: normals,
+/// tangents, UV set 0, UV set 1, colours, joints, weights.
+const ATTRIBUTE_BITS: u32 = 0x7f;
 
 /// A malformed `.mdag` file: where and what.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
@@ -692,19 +818,39 @@ pub struct MdagError {
 /// | bytes | content |
 /// |---|---|
 /// | 12 | [`MDAG_MAGIC`] |
-/// | 4 | version `u32` ([`MDAG_VERSION`]) |
+/// | 4 | version `u32`: [`MDAG_VERSION_PLAIN`] (1) without attributes and groups, else [`MDAG_VERSION`] (2) |
 /// | 8, 8 | position count `u64`, cluster count `u64` |
 /// | 12 per position | `f32` x, y, z |
-/// | per cluster | level `u32`, triangle count `u32`, error `f64`, sphere (centre `3 × f64`, radius `f64`), parent error `f64` (infinite for a root), parent sphere (`4 × f64`), then `3 × u32` per triangle |
+/// | version 2 only | attribute mask `u32` (bit 0 normals, 1 tangents, 2 UV set 0, 3 UV set 1, 4 colours, 5 joints, 6 weights), then each present stream for every vertex: normals `3 × f32`, tangents `4 × f32`, UVs `2 × f32`, colours `4 × f32`, joints `4 × u16`, weights `4 × f32`; then group-name count plus one `u32` (0: no groups), and per name its byte length `u32` and UTF-8 bytes |
+/// | per cluster | level `u32`, triangle count `u32`, error `f64`, sphere (centre `3 × f64`, radius `f64`), parent error `f64` (infinite for a root), parent sphere (`4 × f64`), then `3 × u32` per triangle; version 2 with groups: then a group id `u32` per triangle |
 #[must_use]
 pub fn write_mdag(dag: &Dag) -> Vec<u8> {
+    let plain = dag.attributes.is_empty() && dag.group_names.is_none();
     let mut out = Vec::new();
     out.extend_from_slice(MDAG_MAGIC);
-    out.extend_from_slice(&MDAG_VERSION.to_le_bytes());
+    let version = if plain {
+        MDAG_VERSION_PLAIN
+    } else {
+        MDAG_VERSION
+    };
+    out.extend_from_slice(&version.to_le_bytes());
     out.extend_from_slice(&(dag.positions.len() as u64).to_le_bytes());
     out.extend_from_slice(&(dag.clusters.len() as u64).to_le_bytes());
     for x in dag.positions.iter().flatten() {
         out.extend_from_slice(&x.to_le_bytes());
+    }
+    if !plain {
+        write_attributes(&mut out, &dag.attributes);
+        match &dag.group_names {
+            None => out.extend_from_slice(&0u32.to_le_bytes()),
+            Some(names) => {
+                out.extend_from_slice(&(names.len() as u32 + 1).to_le_bytes());
+                for n in names {
+                    out.extend_from_slice(&(n.len() as u32).to_le_bytes());
+                    out.extend_from_slice(n.as_bytes());
+                }
+            }
+        }
     }
     for c in &dag.clusters {
         out.extend_from_slice(&c.level.to_le_bytes());
@@ -721,8 +867,162 @@ pub fn write_mdag(dag: &Dag) -> Vec<u8> {
         for v in c.triangles.iter().flatten() {
             out.extend_from_slice(&v.to_le_bytes());
         }
+        if dag.group_names.is_some() {
+            for i in 0..c.triangles.len() {
+                let g = c.groups.get(i).copied().unwrap_or(0);
+                out.extend_from_slice(&g.to_le_bytes());
+            }
+        }
     }
     out
+}
+
+/// The attribute mask and streams of a version-2 file.
+fn write_attributes(out: &mut Vec<u8>, a: &VertexAttributes) {
+    fn floats<const N: usize>(out: &mut Vec<u8>, s: &[[f32; N]]) {
+        for x in s.iter().flatten() {
+            out.extend_from_slice(&x.to_le_bytes());
+        }
+    }
+    let present = [
+        a.normals.is_some(),
+        a.tangents.is_some(),
+        a.uv0.is_some(),
+        a.uv1.is_some(),
+        a.colors.is_some(),
+        a.joints.is_some(),
+        a.weights.is_some(),
+    ];
+    let mask = present
+        .iter()
+        .enumerate()
+        .fold(0u32, |m, (i, &p)| m | (u32::from(p) << i));
+    out.extend_from_slice(&mask.to_le_bytes());
+    if let Some(s) = &a.normals {
+        floats(out, s);
+    }
+    if let Some(s) = &a.tangents {
+        floats(out, s);
+    }
+    if let Some(s) = &a.uv0 {
+        floats(out, s);
+    }
+    if let Some(s) = &a.uv1 {
+        floats(out, s);
+    }
+    if let Some(s) = &a.colors {
+        floats(out, s);
+    }
+    if let Some(s) = &a.joints {
+        for x in s.iter().flatten() {
+            out.extend_from_slice(&x.to_le_bytes());
+        }
+    }
+    if let Some(s) = &a.weights {
+        floats(out, s);
+    }
+}
+
+/// Reads the attribute mask and streams of a version-2 file for `np` vertices.
+fn read_attributes(b: &mut Bytes<'_>, np: usize) -> Result<VertexAttributes, MdagError> {
+    fn floats<const N: usize>(
+        b: &mut Bytes<'_>,
+        np: usize,
+        what: &str,
+    ) -> Result<Vec<[f32; N]>, MdagError> {
+        if (np as u64) * (4 * N as u64) > b.left() as u64 {
+            return Err(b.err(format!("{np} {what} values do not fit in the file")));
+        }
+        let mut v = Vec::with_capacity(np);
+        for _ in 0..np {
+            let at = b.at;
+            let mut x = [0f32; N];
+            for c in &mut x {
+                *c = f32::from_le_bytes(b.take::<4>(what)?);
+            }
+            if !x.iter().all(|c| c.is_finite()) {
+                return Err(MdagError {
+                    offset: at as u64,
+                    message: format!("{what} value is not finite"),
+                });
+            }
+            v.push(x);
+        }
+        Ok(v)
+    }
+    let at = b.at;
+    let mask = b.u32("attribute mask")?;
+    if mask & !ATTRIBUTE_BITS != 0 {
+        return Err(MdagError {
+            offset: at as u64,
+            message: format!("attribute mask {mask:#x} has unknown bits"),
+        });
+    }
+    let has = |bit: u32| mask & (1 << bit) != 0;
+    let mut a = VertexAttributes::default();
+    if has(0) {
+        a.normals = Some(floats(b, np, "normal")?);
+    }
+    if has(1) {
+        a.tangents = Some(floats(b, np, "tangent")?);
+    }
+    if has(2) {
+        a.uv0 = Some(floats(b, np, "UV")?);
+    }
+    if has(3) {
+        a.uv1 = Some(floats(b, np, "UV (set 1)")?);
+    }
+    if has(4) {
+        a.colors = Some(floats(b, np, "colour")?);
+    }
+    if has(5) {
+        if (np as u64) * 8 > b.left() as u64 {
+            return Err(b.err(format!("{np} joint values do not fit in the file")));
+        }
+        let mut v = Vec::with_capacity(np);
+        for _ in 0..np {
+            let mut x = [0u16; 4];
+            for c in &mut x {
+                *c = u16::from_le_bytes(b.take::<2>("joints")?);
+            }
+            v.push(x);
+        }
+        a.joints = Some(v);
+    }
+    if has(6) {
+        a.weights = Some(floats(b, np, "weight")?);
+    }
+    Ok(a)
+}
+
+/// Reads the group names of a version-2 file (`None`: no groups).
+fn read_group_names(b: &mut Bytes<'_>) -> Result<Option<Vec<String>>, MdagError> {
+    let count = b.u32("group-name count")?;
+    if count == 0 {
+        return Ok(None);
+    }
+    let count = count - 1;
+    if u64::from(count) * 4 > b.left() as u64 {
+        return Err(b.err(format!("{count} group names do not fit in the file")));
+    }
+    let mut names = Vec::with_capacity(count as usize);
+    for _ in 0..count {
+        let len = b.u32("group-name length")? as usize;
+        if len > b.left() {
+            return Err(b.err(format!(
+                "a group name of {len} bytes does not fit in the file"
+            )));
+        }
+        let at = b.at;
+        let bytes = &b.data[b.at..b.at + len];
+        b.at += len;
+        let name = std::str::from_utf8(bytes).map_err(|_| MdagError {
+            offset: at as u64,
+            message: "group name is not UTF-8".into(),
+        })?;
+        names.push(name.to_owned());
+    }
+    Ok(Some(names))
 }
 
 /// A little-endian reader over a byte slice that knows its offset.
@@ -795,9 +1095,9 @@ pub fn read_mdag(data: &[u8]) -> Result<Dag, MdagError> {
         });
     }
     let version = b.u32("version")?;
-    if version != MDAG_VERSION {
+    if version != MDAG_VERSION && version != MDAG_VERSION_PLAIN {
         return Err(b.err(format!(
-            "version {version}; this build reads version {MDAG_VERSION}"
+            "version {version}; this build reads versions {MDAG_VERSION_PLAIN} and {MDAG_VERSION}"
         )));
     }
     let np = b.u64("position count")?;
@@ -822,20 +1122,30 @@ pub fn read_mdag(data: &[u8]) -> Result<Dag, MdagError> {
         }
         positions.push(p);
     }
+    let (attributes, group_names) = if version == MDAG_VERSION {
+        let a = read_attributes(&mut b, np as usize)?;
+        (a, read_group_names(&mut b)?)
+    } else {
+        (VertexAttributes::default(), None)
+    };
+    let groups = group_names.as_ref().map(Vec::len);
     let mut clusters = Vec::with_capacity(nc as usize);
     for _ in 0..nc {
-        clusters.push(read_cluster(&mut b, np)?);
+        clusters.push(read_cluster(&mut b, np, groups)?);
     }
     if b.left() != 0 {
         return Err(b.err(format!("{} bytes after the last cluster", b.left())));
     }
     Ok(Dag {
         positions,
+        attributes,
+        group_names,
         clusters,
     })
 }
 
-fn read_cluster(b: &mut Bytes<'_>, np: u64) -> Result<Cluster, MdagError> {
+/// One cluster; `groups`: the number of group names when the file has groups.
+fn read_cluster(b: &mut Bytes<'_>, np: u64, groups: Option<usize>) -> Result<Cluster, MdagError> {
     let level = b.u32("cluster level")?;
     let nt = b.u32("triangle count")?;
     let at = b.at;
@@ -871,9 +1181,27 @@ fn read_cluster(b: &mut Bytes<'_>, np: u64) -> Result<Cluster, MdagError> {
         }
         triangles.push(t);
     }
+    let mut tri_groups = Vec::new();
+    if let Some(count) = groups {
+        if u64::from(nt) * 4 > b.left() as u64 {
+            return Err(b.err(format!("{nt} group ids do not fit in the file")));
+        }
+        for _ in 0..nt {
+            let at = b.at;
+            let g = b.u32("group id")?;
+            if g as usize >= count {
+                return Err(MdagError {
+                    offset: at as u64,
+                    message: format!("group id {g} is out of range ({count} groups)"),
+                });
+            }
+            tri_groups.push(g);
+        }
+    }
     Ok(Cluster {
         level,
         triangles,
+        groups: tri_groups,
         error,
         sphere,
         parent_error,

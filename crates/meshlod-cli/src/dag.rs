@@ -177,6 +177,8 @@ fn cut(a: &CutArgs) -> Result<()> {
                 "target": a.target,
                 "culled_clusters": in_cut - clusters.len(),
                 "cut_seconds": cut_seconds,
+                "attributes": mesh.attributes.kinds(),
+                "groups": dag.group_names.as_ref().map_or(0, Vec::len),
             }))?
         );
     } else {

@@ -232,3 +232,39 @@ fn dag_build_and_cut() {
     let err = String::from_utf8_lossy(&o.stderr);
     assert!(err.contains("bad.mdag") && err.contains("byte "), "{err}");
 }
+
+#[test]
+fn dag_cuts_keep_uvs_and_groups() {
+    // The textured cow: its UVs reach every cut, written as a glTF binary.
+    let dir = tempfile::tempdir().expect("tempdir");
+    let mdag = dir.path().join("spot.mdag");
+    let spot = common::data_dir().join("spot.obj");
+    ok(&meshlod(&[
+        "dag",
+        "build",
+        s(&spot),
+        "-o",
+        s(&mdag),
+        "--json",
+    ]));
+    for z in ["1", "100"] {
+        let out = dir.path().join(format!("cut-{z}.glb"));
+        let camera = format!("0,0.2,{z}");
+        let c = ok(&meshlod(&[
+            "dag",
+            "cut",
+            s(&mdag),
+            "--camera",
+            &camera,
+            "-o",
+            s(&out),
+            "--json",
+        ]));
+        assert_eq!(c["attributes"], serde_json::json!(["uv0"]), "{c}");
+        let info = ok(&meshlod(&["info", s(&out), "--json"]));
+        assert_eq!(info["attributes"], serde_json::json!(["uv0"]), "{info}");
+        assert_eq!(info["triangles"], c["triangles"]);
+        // Closed once welded: the seams did not open.
+        assert_eq!(info["boundary_edges"].as_u64(), Some(0), "{info}");
+    }
+}

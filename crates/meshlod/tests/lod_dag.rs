@@ -423,3 +423,17 @@ fn mdag_files_with_attributes_round_trip_and_refuse_damage() {
     let b = write_mdag(&plain);
     assert_eq!(u32::from_le_bytes(b[12..16].try_into().expect("4")), 1);
 }
+
+#[test]
+fn a_hierarchy_of_any_attribute_values_reads_back() {
+    // A NaN texture coordinate is the input's own value: the file written from it
+    // must read back (positions, not attributes, are what a cut relies on).
+    let mut mesh = spot_with_groups();
+    if let Some(uv) = mesh.attributes.uv0.as_mut() {
+        uv[0] = [f32::NAN, 0.5];
+    }
+    let (dag, _) = build_dag(&mesh, &DagOptions::default()).expect("dag");
+    let back = read_mdag(&write_mdag(&dag)).expect("reads back");
+    assert_eq!(back.clusters, dag.clusters);
+    assert_eq!(back.positions, dag.positions);
+}

@@ -933,18 +933,13 @@ fn read_attributes(b: &mut Bytes<'_>, np: usize) -> Result<VertexAttributes, Mda
         if (np as u64) * (4 * N as u64) > b.left() as u64 {
             return Err(b.err(format!("{np} {what} values do not fit in the file")));
         }
+        // Attribute values are taken as written (the input's own, whatever they
+        // are): unlike positions and spheres, no step of a cut depends on them.
         let mut v = Vec::with_capacity(np);
         for _ in 0..np {
-            let at = b.at;
             let mut x = [0f32; N];
             for c in &mut x {
                 *c = f32::from_le_bytes(b.take::<4>(what)?);
-            }
-            if !x.iter().all(|c| c.is_finite()) {
-                return Err(MdagError {
-                    offset: at as u64,
-                    message: format!("{what} value is not finite"),
-                });
             }
             v.push(x);
         }

@@ -125,8 +125,9 @@ pub struct SimplifyOptions {
     /// Keep every boundary point where it is (never moved, never removed). Default
     /// `false`.
     pub lock_boundary: bool,
-    /// Per input vertex: `true` locks its position (never moved or removed).
-    /// Default `None`. Must have one entry per vertex.
+    /// Per input vertex: `true` locks its position (never moved or removed) and
+    /// its attributes (other points merged onto it leave its normals, UVs and
+    /// colours as they were). Default `None`. Must have one entry per vertex.
     pub locked_vertices: Option<Vec<bool>>,
     /// Keep the topology: only edges are collapsed. When `false` and
     /// [`Self::pair_threshold`] is set, close non-edge pairs may be contracted too

@@ -480,6 +480,12 @@ impl CostModel for Qem {
         if self.options.placement == Placement::Endpoint {
             return;
         }
+        // A locked point keeps its attributes as well as its position (a chunk's
+        // or a hierarchy group's border: the neighbours on the other side keep
+        // theirs, and the two must still agree).
+        if surface.kind(record.kept) == VertexKind::Locked {
+            return;
+        }
         if let Some(w) = &self.wedges {
             w.write_point(surface, record.kept);
         }

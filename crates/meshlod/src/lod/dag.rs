@@ -131,8 +131,9 @@ pub struct Cluster {
     pub level: u32,
     /// Its triangles, as indices into [`Dag::positions`].
     pub triangles: Vec<[u32; 3]>,
-    /// Per triangle, its group (material) id into [`Dag::group_names`]; empty when
-    /// the input had no groups.
+    /// Per triangle, its group (material) id into [`Dag::group_names`]: one per
+    /// triangle when [`Dag::group_names`] is `Some` (group 0 is written for a
+    /// cluster without them), empty otherwise.
     pub groups: Vec<u32>,
     /// Its own error (mesh units): that of the group simplification that made it.
     pub error: f64,
@@ -690,7 +691,8 @@ fn simplify_group(
     o.chunks = false;
     o.threads = Some(1);
     let mut result = simplify_observed(&group, &o, &mut NoObserver)?;
-    if result.mesh.triangles.len() * 4 > n * 3 && !group.attributes.is_empty() && !o.permissive {
+    let seams = !group.attributes.is_empty() || group.groups.is_some();
+    if result.mesh.triangles.len() * 4 > n * 3 && seams && !o.permissive {
         // Seams (UV, normal creases, materials) can leave a group no legal
         // collapse: then collapses may cross them, paying their attribute cost.
         o.permissive = true;
@@ -775,10 +777,29 @@ fn apply_group(
 /// Whether vertex `i` of `a` and vertex `j` of `b` have the same attribute
 /// values (streams present in one only count as different).
 fn same_attributes(a: &VertexAttributes, i: usize, b: &VertexAttributes, j: usize) -> bool {
-    fn eq<T: PartialEq>(x: &Option<Vec<T>>, i: usize, y: &Option<Vec<T>>, j: usize) -> bool {
+    /// Bitwise equality (a NaN value equals itself).
+    trait Bits {
+        fn same(&self, other: &Self) -> bool;
+    }
+    impl<const N: usize> Bits for [f32; N] {
+        fn same(&self, other: &Self) -> bool {
+            self.iter()
+                .zip(other)
+                .all(|(x, y)| x.to_bits() == y.to_bits())
+        }
+    }
+    impl Bits for [u16; 4] {
+        fn same(&self, other: &Self) -> bool {
+            self == other
+        }
+    }
+    fn eq<T: Bits>(x: &Option<Vec<T>>, i: usize, y: &Option<Vec<T>>, j: usize) -> bool {
         match (x, y) {
             (None, None) => true,
-            (Some(x), Some(y)) => x.get(i).is_some() && x.get(i) == y.get(j),
+            (Some(x), Some(y)) => match (x.get(i), y.get(j)) {
+                (Some(p), Some(q)) => p.same(q),
+                _ => false,
+            },
             _ => false,
         }
     }

@@ -522,3 +522,15 @@ fn cuts_across_levels_keep_the_texture_continuous() {
     }
     assert!(mixed >= 3, "cuts mixing levels: {mixed}");
 }
+
+#[test]
+fn a_version_1_file_still_reads() {
+    // `tests/data/icosphere1.mdag`: written by the geometry-only format (version 1)
+    // for the 80-triangle icosphere; read back, it is the hierarchy built today.
+    let path = common::data_dir().join("icosphere1.mdag");
+    let bytes = std::fs::read(&path).expect("the version-1 fixture");
+    assert_eq!(u32::from_le_bytes(bytes[12..16].try_into().expect("4")), 1);
+    let read = read_mdag(&bytes).expect("reads");
+    let (built, _) = build_dag(&generate::icosphere(1), &DagOptions::default()).expect("dag");
+    assert_eq!(read, built);
+}

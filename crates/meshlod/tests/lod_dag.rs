@@ -525,12 +525,17 @@ fn cuts_across_levels_keep_the_texture_continuous() {
 
 #[test]
 fn a_version_1_file_still_reads() {
-    // `tests/data/icosphere1.mdag`: written by the geometry-only format (version 1)
-    // for the 80-triangle icosphere; read back, it is the hierarchy built today.
-    let path = common::data_dir().join("icosphere1.mdag");
+    // `tests/data/icosphere3.mdag`: the geometry-only format (version 1), the
+    // hierarchy of the 1,280-triangle icosphere. It reads, writes back byte for
+    // byte, and its cuts are closed.
+    let path = common::data_dir().join("icosphere3.mdag");
     let bytes = std::fs::read(&path).expect("the version-1 fixture");
     assert_eq!(u32::from_le_bytes(bytes[12..16].try_into().expect("4")), 1);
-    let read = read_mdag(&bytes).expect("reads");
-    let (built, _) = build_dag(&generate::icosphere(1), &DagOptions::default()).expect("dag");
-    assert_eq!(read, built);
+    let dag = read_mdag(&bytes).expect("reads");
+    assert!(dag.clusters.len() > 10 && dag.attributes.is_empty());
+    assert_eq!(write_mdag(&dag), bytes);
+    for d in [1.2, 3.0, 100.0] {
+        let (open, _) = edge_faults(&dag.cut_mesh(&dag.cut(&view([0.0, 0.0, d]))));
+        assert_eq!(open, 0);
+    }
 }

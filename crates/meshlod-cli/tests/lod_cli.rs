@@ -18,6 +18,34 @@ fn s(p: &Path) -> &str {
     p.to_str().expect("utf-8 path")
 }
 
+/// `meshlod dag build INPUT -o MDAG --json`, its report.
+fn dag_build(input: &Path, mdag: &Path) -> serde_json::Value {
+    ok(&meshlod(&[
+        "dag",
+        "build",
+        s(input),
+        "-o",
+        s(mdag),
+        "--json",
+    ]))
+}
+
+/// `meshlod dag cut MDAG --camera CAMERA -o OUT --json EXTRA…`, its report.
+fn dag_cut(mdag: &Path, camera: &str, out: &Path, extra: &[&str]) -> serde_json::Value {
+    let mut args = vec![
+        "dag",
+        "cut",
+        s(mdag),
+        "--camera",
+        camera,
+        "-o",
+        s(out),
+        "--json",
+    ];
+    args.extend_from_slice(extra);
+    ok(&meshlod(&args))
+}
+
 #[test]
 fn levels_as_files_match_meshlod_measure() {
     let dir = tempfile::tempdir().expect("tempdir");
@@ -146,30 +174,13 @@ fn bad_lod_options_are_clean_errors() {
 fn dag_build_and_cut() {
     let dir = tempfile::tempdir().expect("tempdir");
     let mdag = dir.path().join("bunny.mdag");
-    let r = ok(&meshlod(&[
-        "dag",
-        "build",
-        s(&data("stanford-bunny.obj")),
-        "-o",
-        s(&mdag),
-        "--json",
-    ]));
+    let r = dag_build(&data("stanford-bunny.obj"), &mdag);
     assert_eq!(r["triangles"].as_u64(), Some(69_451));
     assert!(r["roots"].as_u64().expect("roots") >= 1);
     let mut last = u64::MAX;
     for z in ["0.3", "1", "10", "1000"] {
         let out = dir.path().join(format!("cut-{z}.ply"));
-        let camera = format!("0,0.1,{z}");
-        let c = ok(&meshlod(&[
-            "dag",
-            "cut",
-            s(&mdag),
-            "--camera",
-            &camera,
-            "-o",
-            s(&out),
-            "--json",
-        ]));
+        let c = dag_cut(&mdag, &format!("0,0.1,{z}"), &out, &[]);
         let n = c["triangles"].as_u64().expect("triangles");
         assert!(n <= last && n > 0, "at z = {z}: {n} after {last}");
         last = n;
@@ -179,20 +190,7 @@ fn dag_build_and_cut() {
     // Looking at the bunny from close with a narrow view: no more triangles than
     // without a target; culled, fewer clusters; looking away, the coarsest cut.
     let t = dir.path().join("t.ply");
-    let cut = |extra: &[&str]| {
-        let mut args = vec![
-            "dag",
-            "cut",
-            s(&mdag),
-            "--camera",
-            "0,0.1,0.3",
-            "-o",
-            s(&t),
-            "--json",
-        ];
-        args.extend_from_slice(extra);
-        ok(&meshlod(&args))
-    };
+    let cut = |extra: &[&str]| dag_cut(&mdag, "0,0.1,0.3", &t, extra);
     let all = cut(&["--fov", "10"]);
     let aimed = cut(&["--fov", "10", "--target", "0.05,0.15,0"]);
     let culled = cut(&["--fov", "10", "--target", "0.05,0.15,0", "--cull"]);
@@ -238,28 +236,11 @@ fn dag_cuts_keep_uvs_and_groups() {
     // The textured cow: its UVs reach every cut, written as a glTF binary.
     let dir = tempfile::tempdir().expect("tempdir");
     let mdag = dir.path().join("spot.mdag");
-    let spot = common::data_dir().join("spot.obj");
-    ok(&meshlod(&[
-        "dag",
-        "build",
-        s(&spot),
-        "-o",
-        s(&mdag),
-        "--json",
-    ]));
+    let spot = data("spot.obj");
+    dag_build(&spot, &mdag);
     for z in ["1", "100"] {
         let out = dir.path().join(format!("cut-{z}.glb"));
-        let camera = format!("0,0.2,{z}");
-        let c = ok(&meshlod(&[
-            "dag",
-            "cut",
-            s(&mdag),
-            "--camera",
-            &camera,
-            "-o",
-            s(&out),
-            "--json",
-        ]));
+        let c = dag_cut(&mdag, &format!("0,0.2,{z}"), &out, &[]);
         assert_eq!(c["attributes"], serde_json::json!(["uv0"]), "{c}");
         let info = ok(&meshlod(&["info", s(&out), "--json"]));
         assert_eq!(info["attributes"], serde_json::json!(["uv0"]), "{info}");

@@ -9,7 +9,7 @@ mod common;
 
 use meshlod::lod::dag::{build_dag, read_mdag, write_mdag, Dag, DagOptions, DagView};
 use meshlod::lod::Screen;
-use meshlod::mesh::{generate, Mesh};
+use meshlod::mesh::{generate, Mesh, Weld};
 use std::collections::{HashMap, HashSet};
 
 fn sphere_dag() -> (Mesh, Dag) {
@@ -325,18 +325,12 @@ fn the_hierarchy_is_the_same_on_any_number_of_threads() {
 
 /// `m` with its vertices welded by position (the topology of a seamed mesh).
 fn welded(m: &Mesh) -> Mesh {
-    let mut first: HashMap<[u32; 3], u32> = HashMap::new();
-    let ids: Vec<u32> = m
-        .positions
-        .iter()
-        .enumerate()
-        .map(|(i, p)| *first.entry(p.map(f32::to_bits)).or_insert(i as u32))
-        .collect();
+    let point_of = Weld::exact(&m.positions).point_of;
     Mesh::from_triangles(
         m.positions.clone(),
         m.triangles
             .iter()
-            .map(|t| t.map(|v| ids[v as usize]))
+            .map(|t| t.map(|v| point_of[v as usize]))
             .collect(),
     )
 }

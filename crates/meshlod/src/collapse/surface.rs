@@ -2463,22 +2463,7 @@ pub(crate) fn canonical_wedges(mesh: &Mesh, weld: &Weld, normals: bool) -> Vec<u
         fill[p as usize] += 1;
     }
     let a = &mesh.attributes;
-    let same = |x: usize, y: usize| -> bool {
-        fn eq<T: Copy + Bits, const N: usize>(s: &Option<Vec<[T; N]>>, x: usize, y: usize) -> bool {
-            s.as_ref().is_none_or(|v| {
-                v[x].iter()
-                    .zip(v[y].iter())
-                    .all(|(a, b)| a.bits() == b.bits())
-            })
-        }
-        (!normals || eq(&a.normals, x, y))
-            && eq(&a.tangents, x, y)
-            && eq(&a.uv0, x, y)
-            && eq(&a.uv1, x, y)
-            && eq(&a.colors, x, y)
-            && eq(&a.joints, x, y)
-            && eq(&a.weights, x, y)
-    };
+    let same = |x: usize, y: usize| a.same_values(x, a, y, normals);
     let mut canonical: Vec<u32> = (0..n as u32).collect();
     for p in 0..np {
         let vs = &order[count[p] as usize..count[p + 1] as usize];
@@ -2492,22 +2477,6 @@ pub(crate) fn canonical_wedges(mesh: &Mesh, weld: &Weld, normals: bool) -> Vec<u
         }
     }
     canonical
-}
-
-/// Bit pattern of an attribute component, for exact comparison.
-trait Bits {
-    fn bits(self) -> u32;
-}
-impl Bits for f32 {
-    fn bits(self) -> u32 {
-        // +0.0 and -0.0 compare equal.
-        (self + 0.0).to_bits()
-    }
-}
-impl Bits for u16 {
-    fn bits(self) -> u32 {
-        u32::from(self)
-    }
 }
 
 /// Closest point on triangle `q` to `p`: squared distance and barycentric weights

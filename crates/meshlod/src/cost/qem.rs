@@ -459,17 +459,16 @@ impl CostModel for Qem {
         let r = self.quadrics[record.removed as usize];
         self.quadrics[record.kept as usize].add(&r);
         if let Some(w) = &mut self.wedges {
-            if !record.non_edge && record.removed_count > 2 {
-                // Along a non-manifold edge: every sheet's wedges merge.
-                let map = surface.last_wedge_map_all();
-                let c = w.correction(map);
-                self.quadrics[record.kept as usize].add(&c);
+            if !record.non_edge {
+                let two = surface.last_wedge_map();
+                // Along a non-manifold edge every sheet's wedges merge.
+                let map: &[(u32, u32)] = if record.removed_count > 2 {
+                    surface.last_wedge_map_all()
+                } else {
+                    &two
+                };
+                self.quadrics[record.kept as usize].add(&w.correction(map));
                 w.merge(map);
-            } else if !record.non_edge {
-                let map = surface.last_wedge_map();
-                let c = w.correction(&map);
-                self.quadrics[record.kept as usize].add(&c);
-                w.merge(&map);
             }
         }
     }

@@ -722,7 +722,9 @@ fn apply_group(
         .map(|i| {
             let g = globals[s.vertex_source[i] as usize];
             let same = dag.positions[g as usize] == s.mesh.positions[i]
-                && same_attributes(&dag.attributes, g as usize, &s.mesh.attributes, i);
+                && dag
+                    .attributes
+                    .same_values(g as usize, &s.mesh.attributes, i, true);
             if same {
                 g
             } else {
@@ -772,44 +774,6 @@ fn apply_group(
         });
     }
     made
-}
-
-/// Whether vertex `i` of `a` and vertex `j` of `b` have the same attribute
-/// values (streams present in one only count as different).
-fn same_attributes(a: &VertexAttributes, i: usize, b: &VertexAttributes, j: usize) -> bool {
-    /// Bitwise equality (a NaN value equals itself).
-    trait Bits {
-        fn same(&self, other: &Self) -> bool;
-    }
-    impl<const N: usize> Bits for [f32; N] {
-        fn same(&self, other: &Self) -> bool {
-            self.iter()
-                .zip(other)
-                .all(|(x, y)| x.to_bits() == y.to_bits())
-        }
-    }
-    impl Bits for [u16; 4] {
-        fn same(&self, other: &Self) -> bool {
-            self == other
-        }
-    }
-    fn eq<T: Bits>(x: &Option<Vec<T>>, i: usize, y: &Option<Vec<T>>, j: usize) -> bool {
-        match (x, y) {
-            (None, None) => true,
-            (Some(x), Some(y)) => match (x.get(i), y.get(j)) {
-                (Some(p), Some(q)) => p.same(q),
-                _ => false,
-            },
-            _ => false,
-        }
-    }
-    eq(&a.normals, i, &b.normals, j)
-        && eq(&a.tangents, i, &b.tangents, j)
-        && eq(&a.uv0, i, &b.uv0, j)
-        && eq(&a.uv1, i, &b.uv1, j)
-        && eq(&a.colors, i, &b.colors, j)
-        && eq(&a.joints, i, &b.joints, j)
-        && eq(&a.weights, i, &b.weights, j)
 }
 
 /// The first bytes of a `.mdag` file.

@@ -60,6 +60,22 @@ pub struct VertexAttributes {
     pub weights: Option<Vec<[f32; 4]>>,
 }
 
+/// Bit pattern of an attribute component, for exact comparison.
+trait Bits {
+    fn bits(self) -> u32;
+}
+impl Bits for f32 {
+    fn bits(self) -> u32 {
+        // +0.0 and -0.0 compare equal.
+        (self + 0.0).to_bits()
+    }
+}
+impl Bits for u16 {
+    fn bits(self) -> u32 {
+        u32::from(self)
+    }
+}
+
 /// Names of the attribute streams, for reports and messages.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, serde::Serialize)]
 #[serde(rename_all = "snake_case")]
@@ -177,6 +193,36 @@ impl VertexAttributes {
             n_other,
             [1.0, 0.0, 0.0, 0.0],
         );
+    }
+
+    /// Whether vertex `i` of `self` and vertex `j` of `other` have bitwise-equal
+    /// values in every stream (`+0` and `−0` equal, a NaN equal to itself), the
+    /// normals compared only when `normals` is true. A stream present on one side
+    /// only differs.
+    ///
+    /// # Panics
+    /// Panics if `i` or `j` is out of range for a present stream.
+    #[must_use]
+    pub(crate) fn same_values(&self, i: usize, other: &Self, j: usize, normals: bool) -> bool {
+        fn eq<T: Copy + Bits, const N: usize>(
+            x: &Option<Vec<[T; N]>>,
+            i: usize,
+            y: &Option<Vec<[T; N]>>,
+            j: usize,
+        ) -> bool {
+            match (x, y) {
+                (None, None) => true,
+                (Some(x), Some(y)) => x[i].iter().zip(&y[j]).all(|(a, b)| a.bits() == b.bits()),
+                _ => false,
+            }
+        }
+        (!normals || eq(&self.normals, i, &other.normals, j))
+            && eq(&self.tangents, i, &other.tangents, j)
+            && eq(&self.uv0, i, &other.uv0, j)
+            && eq(&self.uv1, i, &other.uv1, j)
+            && eq(&self.colors, i, &other.colors, j)
+            && eq(&self.joints, i, &other.joints, j)
+            && eq(&self.weights, i, &other.weights, j)
     }
 
     /// Checks that every present stream has `n` entries.

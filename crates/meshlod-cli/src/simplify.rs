@@ -1122,16 +1122,9 @@ fn simplify_parts(
         })
     };
     let (max_error, pair_threshold) = (abs(opts.max_error), abs(opts.pair_threshold));
-    let mut out = scene.clone();
-    let mut agg = Aggregate::empty(scene.parts.len(), diag);
-    let mut first_other: Option<(StopReason, String)> = None;
-    for (i, part) in scene.parts.iter().enumerate() {
-        let scale = part
-            .instances
-            .iter()
-            .map(meshlod::io::stretch)
-            .fold(0.0, f64::max)
-            .max(f64::MIN_POSITIVE);
+    let run = |i: usize, part_opts: &mut SimplifyOptions, progress: &mut Progress| {
+        let part = &scene.parts[i];
+        let scale = part_scale(part);
         let local = |d: Option<Distance>| {
             d.map(|d| match d {
                 Distance::Absolute(a) => Distance::Absolute(a / scale),
@@ -1140,25 +1133,133 @@ fn simplify_parts(
         };
         part_opts.max_error = local(max_error);
         part_opts.pair_threshold = local(pair_threshold);
-        let s = simplify_observed(&part.mesh, &part_opts, progress)
-            .with_context(|| format!("part {i} ({})", part.name.as_deref().unwrap_or("unnamed")))?;
+        simplify_observed(&part.mesh, part_opts, progress)
+            .with_context(|| format!("part {i} ({})", part.name.as_deref().unwrap_or("unnamed")))
+    };
+    let mut results = Vec::with_capacity(scene.parts.len());
+    for i in 0..scene.parts.len() {
+        results.push(run(i, &mut part_opts, progress)?);
+    }
+    let instances = |i: usize| scene.parts[i].instances.len();
+    // Each part's share of the target, as first asked.
+    let shares: Vec<usize> = results.iter().map(|s| s.report.target_triangles).collect();
+    let want: usize = (0..results.len()).map(|i| shares[i] * instances(i)).sum();
+    // Parts that cannot reach their share (a bolt of 12 triangles, a part whose
+    // holes all stay) leave the scene above its target: the parts that reached
+    // theirs are simplified again, further, to make up the difference (in
+    // proportion to their size), up to three times. When even that cannot reach
+    // the target, the first results stay: squeezing every other part as far as
+    // it goes doubled VC's error for a scene still above its target.
+    let mut earlier_seconds = 0.0;
+    let mut squeezed = vec![false; results.len()];
+    let first = results.clone();
+    if opts.max_error.is_none() {
+        for _ in 0..3 {
+            let have: usize = (0..results.len())
+                .map(|i| results[i].report.triangles_out * instances(i))
+                .sum();
+            let slack: Vec<usize> = (0..results.len())
+                .filter(|&i| {
+                    results[i].report.stop_reason == StopReason::TargetReached
+                        && results[i].report.triangles_out > 1
+                })
+                .collect();
+            let room: usize = slack
+                .iter()
+                .map(|&i| results[i].report.triangles_out * instances(i))
+                .sum();
+            if have <= want || room == 0 {
+                break;
+            }
+            let keep = (room.saturating_sub(have - want)) as f64 / room as f64;
+            for i in slack {
+                let n = results[i].report.triangles_out;
+                let target = ((n as f64 * keep).floor() as usize).max(1);
+                if target >= n {
+                    continue;
+                }
+                let mut o = part_opts.clone();
+                o.ratio = None;
+                o.target_triangles = Some(target);
+                earlier_seconds += results[i].report.seconds;
+                results[i] = run(i, &mut o, progress)?;
+                squeezed[i] = true;
+            }
+        }
+    }
+    let have: usize = (0..results.len())
+        .map(|i| results[i].report.triangles_out * instances(i))
+        .sum();
+    let mut gave_up = false;
+    if have > want && squeezed.contains(&true) {
+        for (i, s) in first.into_iter().enumerate() {
+            if squeezed[i] {
+                earlier_seconds += results[i].report.seconds;
+                results[i] = s;
+            }
+        }
+        squeezed.fill(false);
+        gave_up = true;
+    }
+    let mut out = scene.clone();
+    let mut agg = Aggregate::empty(scene.parts.len(), diag);
+    let mut first_other: Option<(StopReason, String)> = None;
+    let mut short = 0;
+    for (i, s) in results.into_iter().enumerate() {
         let r = &s.report;
-        agg.add(r, part.instances.len(), scale);
+        agg.add(r, instances(i), part_scale(&scene.parts[i]));
         if !matches!(
             r.stop_reason,
             StopReason::TargetReached | StopReason::EmptyInput
-        ) && first_other.is_none()
-        {
-            first_other = Some((r.stop_reason, format!("part {i}: {}", r.stop_detail)));
+        ) {
+            short += 1;
+            if first_other.is_none() {
+                first_other = Some((r.stop_reason, format!("part {i}: {}", r.stop_detail)));
+            }
         }
         if let Some(p) = out.parts.get_mut(i) {
             p.mesh = s.mesh;
         }
     }
+    agg.target_triangles = want;
+    agg.seconds += earlier_seconds;
+    let more = squeezed.iter().filter(|&&q| q).count();
+    let parts = |n: usize| {
+        if n == 1 {
+            "1 part".to_string()
+        } else {
+            format!("{n} parts")
+        }
+    };
+    let (stopped, others) = (parts(short), parts(more));
     match first_other {
+        Some((_, detail)) if agg.triangles_out <= want => {
+            agg.stop_reason = StopReason::TargetReached;
+            agg.stop_detail = format!(
+                "the scene reached its target ({} triangles for {want}): {stopped} \
+                 stopped above {} share of the target{}; first stopped: {detail}",
+                agg.triangles_out,
+                if short == 1 { "its" } else { "their" },
+                if more > 0 {
+                    format!(", made up for by simplifying {others} further")
+                } else {
+                    String::new()
+                }
+            );
+        }
         Some((reason, detail)) => {
             agg.stop_reason = reason;
-            agg.stop_detail = detail;
+            agg.stop_detail = if gave_up {
+                format!(
+                    "{detail} ({stopped} stopped above {} share of the target; the \
+                     others, simplified further as far as they could go, would not make \
+                     up for {}, so every part keeps its first result)",
+                    if short == 1 { "its" } else { "their" },
+                    if short == 1 { "it" } else { "them" }
+                )
+            } else {
+                detail
+            };
         }
         None => {
             agg.stop_detail = format!(
@@ -1168,6 +1269,16 @@ fn simplify_parts(
         }
     }
     Ok((out, agg))
+}
+
+/// How much a part's instances stretch it into the scene, at most (1 for one
+/// unscaled instance).
+fn part_scale(part: &meshlod::io::Part) -> f64 {
+    part.instances
+        .iter()
+        .map(meshlod::io::stretch)
+        .fold(0.0, f64::max)
+        .max(f64::MIN_POSITIVE)
 }
 
 fn print_text(r: &CliReport) {

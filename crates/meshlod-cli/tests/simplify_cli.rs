@@ -804,3 +804,84 @@ fn attribute_weights_and_permissive() {
         "{e}"
     );
 }
+
+/// A glTF scene of `main` and `tetrahedra` closed tetrahedra beside it (4
+/// triangles each: none can lose a triangle), written to `dir/scene.glb`.
+fn scene_with_tetrahedra(dir: &Path, main: meshlod::Mesh, tetrahedra: usize) -> PathBuf {
+    use meshlod::io::{Part, Scene, IDENTITY};
+    let mut scene = Scene::from_mesh(main);
+    scene.parts[0].name = Some("main".into());
+    for k in 0..tetrahedra {
+        let mut tetra = generate::tetrahedron();
+        for p in &mut tetra.positions {
+            p[0] += 4.0 + 2.0 * k as f32;
+        }
+        scene.parts.push(Part {
+            name: Some(format!("tetra{k}")),
+            mesh: tetra,
+            instances: vec![IDENTITY],
+        });
+    }
+    let input = dir.join("scene.glb");
+    meshlod::write_scene(&input, &scene, &WriteOptions::default()).expect("write");
+    input
+}
+
+/// A torus (2,304 triangles) and five tetrahedra: at 10% the tetrahedra stay
+/// above their share, so the torus is simplified further to make up for them,
+/// and the scene reaches its target with every part still there.
+///
+/// ```text
+///   torus  2304 → share 230, made smaller      tetrahedra  4 → share 0, keep 4
+/// ```
+#[test]
+fn gltf_parts_that_cannot_reach_their_share_are_made_up_for() {
+    let dir = tempfile::tempdir().unwrap();
+    let input = scene_with_tetrahedra(dir.path(), generate::torus(48, 24, 2.0, 0.6), 5);
+    let glb = dir.path().join("out.glb");
+    let j = json(&simplify(&input, &glb, &["--ratio", "0.1", "--json"]));
+    let want = j["target_triangles"].as_u64().unwrap();
+    let got = j["triangles_out"].as_u64().unwrap();
+    assert_eq!(j["triangles_in"], 2304 + 20);
+    assert!(want <= 233, "target {want}");
+    assert!(
+        got <= want && got + want / 100 + 1 >= want,
+        "{got} for {want}"
+    );
+    assert_eq!(j["stop_reason"], "target_reached", "{j}");
+    let detail = j["stop_detail"].as_str().unwrap();
+    assert!(
+        detail.contains("5 parts stopped above their share of the target")
+            && detail.contains("made up for by simplifying 1 part further"),
+        "{detail}"
+    );
+    let back = read_scene(&glb).expect("reads");
+    assert_eq!(back.parts.len(), 6);
+    for p in &back.parts[1..] {
+        assert_eq!(p.mesh.triangles.len(), 4, "a tetrahedron lost triangles");
+    }
+    assert_eq!(back.parts[0].mesh.triangles.len() as u64 + 20, got);
+}
+
+/// An icosphere (320 triangles, share 32 at 10%) beside 20 tetrahedra (80
+/// triangles that stay): no simplification of the sphere can bring the scene
+/// to 40 triangles, so it is not squeezed for nothing: it keeps its own share,
+/// and the report says why the scene stopped above its target.
+#[test]
+fn gltf_parts_are_not_squeezed_when_the_target_is_out_of_reach() {
+    let dir = tempfile::tempdir().unwrap();
+    let input = scene_with_tetrahedra(dir.path(), generate::icosphere(2), 20);
+    let glb = dir.path().join("out.glb");
+    let j = json(&simplify(&input, &glb, &["--ratio", "0.1", "--json"]));
+    assert_eq!(j["triangles_in"], 320 + 80);
+    assert_ne!(j["stop_reason"], "target_reached", "{j}");
+    let detail = j["stop_detail"].as_str().unwrap();
+    assert!(
+        detail.contains("20 parts stopped above their share of the target")
+            && detail.contains("every part keeps its first result"),
+        "{detail}"
+    );
+    let back = read_scene(&glb).expect("reads");
+    assert_eq!(back.parts[0].mesh.triangles.len(), 32);
+    assert_eq!(j["triangles_out"], 32 + 80);
+}

@@ -3,6 +3,16 @@
 //!
 //! 1. Every edge (and every extra non-edge pair) is evaluated by the cost model and
 //!    queued by cost; ties are broken by point ids, so runs are deterministic.
+//!    A flat pair, one whose key is zero in `f32` (a collapse within a plane), is
+//!    keyed by its length instead, below every other key: flat regions then
+//!    coarsen evenly, shortest edges first. In arbitrary order a point near the
+//!    last collapse kept swallowing its neighbours, its fan grew, and most of the
+//!    collapses tried around it folded a triangle over and were tried again after
+//!    every change nearby: on the Grand Canyon grids (8-bit heights, so wide flat
+//!    terraces) the rejections per collapse grew with the grid, 1.0 at 4.2M
+//!    triangles, 2.2 at 16.8M, 7.0 at 67M, and the run's time with them. Keyed by
+//!    length: 0.9 at 16.8M and 1.2 at 67M; the 67M grid at 10% took 181 s instead
+//!    of 354 s (`docs/benchmarks.md`, "QEM at scale").
 //! 2. The cheapest entry is popped. Entries carry a stamp of their points' versions
 //!    and are dropped when stale. The candidate is re-evaluated (its position is not
 //!    stored), checked against the maximum error, the operator's legality and the
@@ -105,6 +115,22 @@ const STALE_SLACK: usize = 4096;
 /// Collapses between progress callbacks.
 const PROGRESS_EVERY: usize = 4096;
 
+/// Queue keys whose bits are below this, keys below `f32`'s smallest normal number
+/// (1.2·10⁻³⁸; a key is the cost over a power of the diagonal, so such a cost is
+/// zero for any practical purpose), are flat: replaced by [`flat_bits`] of the
+/// pair's length.
+const FLAT_BITS: u32 = 0x0080_0000;
+
+/// The key bits of a flat pair whose squared length is the fraction `l2` of the
+/// squared diagonal: non-decreasing in `l2` and below [`FLAT_BITS`], so flat pairs
+/// come before every other and the shortest first.
+fn flat_bits(l2: f64) -> u32 {
+    let x = if l2 >= 0.0 { l2.min(1.0) as f32 } else { 0.0 };
+    // Positive floats order as their bits; 1.0 is 0x3f80_0000, so the shifted
+    // bits stay below 0x0040_0000.
+    x.to_bits() >> 8
+}
+
 /// `2^(−power·k)` with `2^k` the power of two nearest `diagonal` (1 for an empty or
 /// non-finite diagonal): multiplying by it is exact in floating point.
 fn key_scale(power: i32, diagonal: f64) -> f64 {
@@ -125,6 +151,9 @@ struct Driver<'a, C: CostModel + ?Sized> {
     heap: Heap,
     /// Factor from costs to queue keys ([`CostModel::cost_length_power`]).
     key_scale: f64,
+    /// Factor from squared lengths to fractions of the squared diagonal (exact, a
+    /// power of two), for the keys of flat pairs.
+    length_scale: f64,
     partners: Vec<Vec<u32>>,
     forward: Vec<u32>,
     scratch: Vec<u32>,
@@ -158,15 +187,21 @@ impl<C: CostModel + ?Sized> Driver<'_, C> {
     fn entry_at(&self, a: u32, pa: [f64; 3], b: u32, endpoint_only: bool) -> Option<Item> {
         let m = self.moves(a, b, endpoint_only)?;
         let c = self.cost.evaluate_cost_near(self.surface, a, pa, b, &m)?;
-        Some(
-            Item {
-                a,
-                b,
-                stamp: self.stamp(a, b, endpoint_only),
-                cost_bits: 0,
-            }
-            .with_cost(c * self.key_scale),
-        )
+        let mut item = Item {
+            a,
+            b,
+            stamp: self.stamp(a, b, endpoint_only),
+            cost_bits: 0,
+        }
+        .with_cost(c * self.key_scale);
+        if item.cost_bits < FLAT_BITS {
+            // A flat pair: shortest first (module docs, step 1).
+            let pb = self.surface.local(b);
+            let d = [pa[0] - pb[0], pa[1] - pb[1], pa[2] - pb[2]];
+            let l2 = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]) * self.length_scale;
+            item.cost_bits = flat_bits(l2);
+        }
+        Some(item)
     }
 
     #[inline(always)]
@@ -431,7 +466,8 @@ impl<C: CostModel + ?Sized> Driver<'_, C> {
             exact = exact.max(c.cost * SOFT_PENALTY);
         }
         let requeued = Item { cost_bits: 0, ..e }.with_cost(exact * self.key_scale);
-        if exact > c.cost && requeued.cost_bits > e.cost_bits {
+        // (A flat key, [`flat_bits`], is not raised by a cost that is still flat.)
+        if exact > c.cost && requeued.cost_bits >= FLAT_BITS && requeued.cost_bits > e.cost_bits {
             if penalised {
                 rejections.filter += 1;
             }
@@ -715,6 +751,7 @@ fn run_impl<C: CostModel + ?Sized>(
     // O(1) per entry instead of a sweep per collapse).
     let non_edge_pairs = !options.extra_pairs.is_empty() && options.limits.allow_non_edge;
     let mut swept_to = 0usize;
+    let length_scale = key_scale(2, surface.diagonal());
     let mut d = Driver {
         surface,
         cost,
@@ -725,6 +762,7 @@ fn run_impl<C: CostModel + ?Sized>(
         // overflow list never reallocates on the way.
         heap: Heap::with_capacity(2 * surface_triangles + STALE_SLACK + 1024),
         key_scale: scale,
+        length_scale,
         partners,
         forward,
         scratch: Vec::new(),

@@ -9,8 +9,8 @@
 # Needs ../shared (the height field and tools/make_terrain.py, which needs numpy and
 # Pillow: `pip install numpy pillow`). Grids are written once to $MESHLOD_SCALE_DATA
 # (default /tmp/meshlod-scale; the largest is 1.3 GB) and kept. The 67M run peaks
-# near 14 GiB (191 bytes per triangle at 10%, beside the 1.2 GB input), and takes
-# about 25 minutes. Prints a Markdown table (see the example's docs for the columns).
+# near 10 GiB (133 bytes per triangle at 10%, beside the 1.2 GB input); the whole
+# script took 16 minutes on a 2-core machine (grids already written). Prints a Markdown table (see the example's docs for the columns).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 shared=../shared

@@ -11,8 +11,8 @@
 //!    every change nearby: on the Grand Canyon grids (8-bit heights, so wide flat
 //!    terraces) the rejections per collapse grew with the grid, 1.0 at 4.2M
 //!    triangles, 2.2 at 16.8M, 7.0 at 67M, and the run's time with them. Keyed by
-//!    length: 0.9 at 16.8M and 1.2 at 67M; the 67M grid at 10% took 181 s instead
-//!    of 354 s (`docs/benchmarks.md`, "QEM at scale").
+//!    length: 0.9 at 16.8M and 1.2 at 67M; the 67M grid at 10% took 168 s instead
+//!    of 355 s (`docs/benchmarks.md`, "QEM at scale").
 //! 2. The cheapest entry is popped. Entries carry a stamp of their points' versions
 //!    and are dropped when stale. The candidate is re-evaluated (its position is not
 //!    stored), checked against the maximum error, the operator's legality and the

@@ -2,8 +2,9 @@
 //! simplify --fit`) on the repository's test meshes at 10% and 1%: it keeps every
 //! triangle (the same index triples as without it: only positions change), keeps
 //! border points where they were, moves points, lowers the symmetric Hausdorff mean
-//! (over the cases; in each, it rises by less than 10%), does not raise the maximum beyond sampling noise (1%), makes no degenerate
-//! triangle and turns no triangle away from the input.
+//! (over the cases; in each, it rises by less than 10%), does not raise the maximum
+//! beyond sampling noise (1%), makes no degenerate triangle and turns no triangle
+//! away from the input.
 
 mod common;
 

@@ -63,6 +63,7 @@ use super::{Observer, Outcome, Rejections, StopReason, StopRule};
 use crate::collapse::{Merge, Moves, OperatorLimits, Preview, Reject, Surface};
 use crate::cost::{Candidate, CostModel};
 use crate::filter::Filter;
+use crate::quadric::{dot, sub};
 
 /// Settings of [`run`].
 #[derive(Debug, Clone, Default)]
@@ -196,10 +197,8 @@ impl<C: CostModel + ?Sized> Driver<'_, C> {
         .with_cost(c * self.key_scale);
         if item.cost_bits < FLAT_BITS {
             // A flat pair: shortest first (module docs, step 1).
-            let pb = self.surface.local(b);
-            let d = [pa[0] - pb[0], pa[1] - pb[1], pa[2] - pb[2]];
-            let l2 = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]) * self.length_scale;
-            item.cost_bits = flat_bits(l2);
+            let d = sub(pa, self.surface.local(b));
+            item.cost_bits = flat_bits(dot(d, d) * self.length_scale);
         }
         Some(item)
     }

@@ -484,7 +484,12 @@ impl Surface {
             s.len = 0;
             total += s.cap;
         }
-        let mut fans = vec![DEAD; total as usize];
+        // Room for the merged fans the collapses append, reserved but not written
+        // (so not resident until used): growing the array later would copy it,
+        // the old and the new copy resident at once.
+        let total = total as usize;
+        let mut fans = Vec::with_capacity(total + total / 4);
+        fans.resize(total, DEAD);
         for (ti, t) in self.tri.iter().enumerate() {
             if t[0] != DEAD {
                 for &p in t {

@@ -14,6 +14,11 @@ pub const DEAD: u32 = u32::MAX;
 /// Extra slots given to every fan when the fan array is (re)built.
 const FAN_SLACK: u32 = 2;
 
+/// The fan array's spare room is `1 / FAN_ROOM` of its length: reserved when it is
+/// built and added when it grows (not doubled: it is the largest per-triangle
+/// structure, and room reserved but never written is not resident).
+const FAN_ROOM: usize = 4;
+
 /// Most triangles on one non-manifold edge that a collapse along it handles (sheets
 /// meeting at the edge); a chain edge with more stays.
 pub const MAX_SHEETS: usize = 8;
@@ -484,11 +489,11 @@ impl Surface {
             s.len = 0;
             total += s.cap;
         }
-        // Room for the merged fans the collapses append, reserved but not written
-        // (so not resident until used): growing the array later would copy it,
-        // the old and the new copy resident at once.
+        // Room for the merged fans the collapses append, reserved but not written:
+        // growing the array later would copy it, the old and the new copy
+        // resident at once.
         let total = total as usize;
-        let mut fans = Vec::with_capacity(total + total / 4);
+        let mut fans = Vec::with_capacity(total + total / FAN_ROOM);
         fans.resize(total, DEAD);
         for (ti, t) in self.tri.iter().enumerate() {
             if t[0] != DEAD {
@@ -1879,10 +1884,10 @@ impl Surface {
         {
             self.compact_fans();
         }
-        // Grow by a quarter rather than double: still amortised O(1), and the
-        // array (the largest per-triangle structure) stays near its live size.
+        // Grow by [`FAN_ROOM`]'s fraction rather than double: still amortised O(1),
+        // and the array stays near its live size.
         if self.fans.len() + cap > self.fans.capacity() {
-            self.fans.reserve_exact(cap.max(self.fans.len() / 4));
+            self.fans.reserve_exact(cap.max(self.fans.len() / FAN_ROOM));
         }
         let sv = self.fan_slot[v as usize].start as usize;
         let su = self.fan_slot[u as usize].start as usize;

@@ -123,13 +123,21 @@ pub struct SimplifyArgs {
     /// two triangles where the other one lies nearer the input surface, without
     /// raising the largest distance around it (lowered the Hausdorff mean by 1-10% on
     /// the benchmark meshes, at 1.0-1.5x the time; --fit includes it).
-    #[arg(long, help_heading = heading::QEM)]
+    #[arg(long, hide = true, help_heading = heading::TUNING_QEM)]
     pub swap: bool,
     /// Also contract non-edge vertex pairs closer than T (fraction of the diagonal,
     /// or mesh units with --absolute), joining separate parts. Lets the topology
-    /// change.
+    /// change (implies --free-topology, without removing parts).
     #[arg(long, value_name = "T", help_heading = heading::QEM)]
     pub pair_threshold: Option<f64>,
+    /// qem, melax: let the topology change where that reaches the target (as
+    /// MeshLab's QEM without "preserve topology"): a hole closes once it is down
+    /// to three border edges, and a separate part is removed whole once the
+    /// collapses cost more than its radius (the largest part always stays). For
+    /// meshes of many parts and holes (CAD assemblies, scans) that otherwise stop
+    /// far above low targets. Never makes fold-overs or non-manifold edges.
+    #[arg(long, help_heading = heading::QEM)]
+    pub free_topology: bool,
     /// qem: weights of the attributes in the cost, e.g. `normal=0.002,uv=0.1,color=0.1`
     /// (the defaults; names normal, uv, color; 0 leaves one out). An attribute error
     /// of 1/W costs as much as moving a point by the bounding-box diagonal; merged
@@ -383,6 +391,10 @@ struct CliReport {
     /// Times pairs rejected earlier were queued again once the queue's cost had
     /// grown past theirs (qem, melax).
     retries: usize,
+    /// Holes of three border edges closed by a collapse (--free-topology).
+    holes_closed: usize,
+    /// Separate parts (connected components) removed whole (--free-topology).
+    components_removed: usize,
     /// Output points moved by the vertex fitting (qem).
     fit_moved: usize,
     /// Diagonals swapped toward the input (qem).
@@ -529,6 +541,9 @@ fn options(args: &SimplifyArgs) -> Result<SimplifyOptions> {
         o.attribute_weights = parse_attribute_weights(s)?;
     }
     o.permissive = args.permissive;
+    if args.free_topology {
+        o = o.with_preserve_topology(false);
+    }
     if let Some(d) = args.max_normal_deviation {
         o = o.with_max_normal_deviation(d);
     }
@@ -648,6 +663,9 @@ fn warn_ignored(args: &SimplifyArgs, fitting: bool) {
     }
     if args.lock_boundary && args.method == MethodArg::Cluster {
         ignored.push("--lock-boundary");
+    }
+    if args.free_topology && matches!(args.method, MethodArg::Cluster | MethodArg::VertexRemoval) {
+        ignored.push("--free-topology");
     }
     if args.placement.is_some() && args.method != MethodArg::Qem {
         ignored.push("--placement");
@@ -944,6 +962,8 @@ fn report(
         non_manifold_kept: agg.nm_kept,
         facing_flips: agg.facing_flips,
         retries: agg.retries,
+        holes_closed: agg.holes_closed,
+        components_removed: agg.components_removed,
         fit_moved: agg.fit_moved,
         edge_swaps: agg.edge_swaps,
         flat_shading: agg.flat_shading,
@@ -990,6 +1010,8 @@ struct Aggregate {
     duplicate: usize,
     facing_flips: usize,
     retries: usize,
+    holes_closed: usize,
+    components_removed: usize,
     fit_moved: usize,
     edge_swaps: usize,
     flat_shading: bool,
@@ -1021,6 +1043,8 @@ impl Aggregate {
             duplicate: 0,
             facing_flips: 0,
             retries: 0,
+            holes_closed: 0,
+            components_removed: 0,
             fit_moved: 0,
             edge_swaps: 0,
             flat_shading: false,
@@ -1061,6 +1085,8 @@ impl Aggregate {
         self.duplicate += r.duplicate_removed;
         self.facing_flips += r.facing_flips;
         self.retries += r.retries;
+        self.holes_closed += instances * r.holes_closed;
+        self.components_removed += instances * r.components_removed;
         self.fit_moved += r.fit_moved;
         self.edge_swaps += r.edge_swaps;
         self.flat_shading |= r.flat_shading;

@@ -885,3 +885,52 @@ fn gltf_parts_are_not_squeezed_when_the_target_is_out_of_reach() {
     assert_eq!(back.parts[0].mesh.triangles.len(), 32);
     assert_eq!(j["triangles_out"], 32 + 80);
 }
+
+/// A torus with sixteen small spheres (radius 0.05) on its outer equator: with
+/// the topology kept, the spheres (four triangles at least each) and their
+/// count stay; `--free-topology` removes them whole, reaches the target and
+/// reports `components_removed`; clustering names the flag unused in a warning.
+#[test]
+fn free_topology_removes_small_parts_and_reports_them() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut m = generate::torus(48, 24, 2.0, 0.6);
+    for k in 0..16 {
+        let mut s = generate::icosphere(1);
+        let a = f64::from(k) * std::f64::consts::TAU / 16.0;
+        for p in &mut s.positions {
+            p[0] = p[0] * 0.05 + (2.6 * a.cos()) as f32;
+            p[1] = p[1] * 0.05 + (2.6 * a.sin()) as f32;
+            p[2] *= 0.05;
+        }
+        m.append(&s, 0);
+    }
+    let input = dir.path().join("rivets.ply");
+    meshlod::write_mesh(&input, &m, &WriteOptions::default()).unwrap();
+    let output = dir.path().join("out.ply");
+    let kept = json(&simplify(&input, &output, &["--triangles", "60", "--json"]));
+    assert_eq!(kept["components_removed"], 0);
+    assert_eq!(kept["holes_closed"], 0);
+    assert!(kept["triangles_out"].as_u64().unwrap() >= 16 * 4, "{kept}");
+    let free = json(&simplify(
+        &input,
+        &output,
+        &["--triangles", "60", "--json", "--free-topology"],
+    ));
+    assert_eq!(free["stop_reason"], "target_reached", "{free}");
+    assert_eq!(free["components_removed"], 16, "{free}");
+    let out = meshlod::read_mesh(&output).unwrap();
+    assert_eq!(meshlod::mesh::MeshStats::of(&out).topology.components, 1);
+    let cluster = simplify(
+        &input,
+        &output,
+        &[
+            "--ratio",
+            "0.5",
+            "--json",
+            "--method",
+            "cluster",
+            "--free-topology",
+        ],
+    );
+    assert!(stderr_of_ok(&cluster).contains("--free-topology not used by --method cluster"));
+}

@@ -236,6 +236,8 @@ struct SimplifyReport {
     non_manifold_kept: Option<meshlod::collapse::NonManifoldPoints>,
     facing_flips: usize,
     retries: usize,
+    holes_closed: usize,
+    components_removed: usize,
     fit_moved: usize,
     edge_swaps: usize,
     flat_shading: bool,
@@ -259,7 +261,7 @@ struct SimplifyReport {
 #[pyo3(signature = (
     vertices, faces, *, ratio=None, triangles=None, max_error=None, absolute=false,
     method="qem", lock_boundary=false, locked=None, fit=false, swap=false, measure=false,
-    threads=None, normals=None, uvs=None, colors=None
+    threads=None, normals=None, uvs=None, colors=None, free_topology=false
 ))]
 #[allow(clippy::too_many_arguments)]
 fn simplify<'py>(
@@ -280,6 +282,7 @@ fn simplify<'py>(
     normals: Option<&Bound<'py, PyAny>>,
     uvs: Option<&Bound<'py, PyAny>>,
     colors: Option<&Bound<'py, PyAny>>,
+    free_topology: bool,
 ) -> PyResult<Bound<'py, PyTuple>> {
     let method = self::method(method)?;
     let threads = count(threads, "threads")?;
@@ -295,6 +298,7 @@ fn simplify<'py>(
     let mut opts = SimplifyOptions::default()
         .with_method(method)
         .with_lock_boundary(lock_boundary)
+        .with_preserve_topology(!free_topology)
         .with_threads(threads);
     if let Some(r) = ratio {
         opts = opts.with_ratio(r);
@@ -360,6 +364,8 @@ fn simplify<'py>(
         non_manifold_kept: r.non_manifold_kept,
         facing_flips: r.facing_flips,
         retries: r.retries,
+        holes_closed: r.holes_closed,
+        components_removed: r.components_removed,
         fit_moved: r.fit_moved,
         edge_swaps: r.edge_swaps,
         flat_shading: r.flat_shading,

@@ -384,6 +384,7 @@ TIMES = {"seconds", "phase_seconds"}
         (["--method", "vertex-removal", "--ratio", "0.1"], {"method": "vertex-removal", "ratio": 0.1}),
         (["--method", "cluster", "--ratio", "0.05"], {"method": "cluster", "ratio": 0.05}),
         (["--max-error", "0.002", "--lock-boundary"], {"max_error": 0.002, "lock_boundary": True}),
+        (["--ratio", "0.01", "--free-topology"], {"ratio": 0.01, "free_topology": True}),
     ],
 )
 def test_same_as_cli(tmp_path, args, kwargs):

@@ -710,6 +710,12 @@ pub struct Report {
     pub retries: usize,
     /// Whether the soft triangle-quality guard was switched off to reach the target.
     pub soft_filters_relaxed: bool,
+    /// Holes of three border edges closed by a collapse (only when
+    /// [`SimplifyOptions::preserve_topology`] is `false`).
+    pub holes_closed: usize,
+    /// Separate parts removed whole (only when
+    /// [`SimplifyOptions::preserve_topology`] is `false`).
+    pub components_removed: usize,
     /// Diagonal swaps made by the orientation repair ([`SimplifyOptions::facing_repair`]).
     pub facing_flips: usize,
     /// Output triangles facing away from the input surface (normal opposite to the
@@ -902,6 +908,8 @@ fn assemble_report(
         rescans: outcome.rescans,
         retries: outcome.retries,
         soft_filters_relaxed: outcome.soft_filters_relaxed,
+        holes_closed: outcome.holes_closed,
+        components_removed: outcome.components_removed,
         facing_flips: facing.map_or(0, |f| f.flips),
         facing_away: facing.map(|f| [f.before, f.after]),
         fit_moved: fitted.moved,
@@ -1076,10 +1084,12 @@ fn decimate(
     let driver_options = EdgeCollapseOptions {
         limits: OperatorLimits {
             allow_non_edge,
+            close_holes: !options.preserve_topology,
             ..OperatorLimits::default()
         },
         stop,
         extra_pairs,
+        prune_parts: !options.preserve_topology,
     };
     let normal = options.max_normal_deviation.map(NormalDeviation::new);
     let aspect = (options.min_triangle_quality > 0.0).then_some(AspectRatio {
@@ -1360,6 +1370,8 @@ fn cluster_result(
         rescans: 0,
         retries: 0,
         soft_filters_relaxed: false,
+        holes_closed: 0,
+        components_removed: 0,
         facing_flips: 0,
         facing_away: None,
         fit_moved: 0,
@@ -1525,5 +1537,7 @@ pub use fit::DEFAULT_FIT_ITERATIONS;
 mod tests;
 #[cfg(test)]
 mod tests_non_manifold;
+#[cfg(test)]
+pub(crate) mod tests_topology;
 #[cfg(test)]
 mod tests_vertex_removal;

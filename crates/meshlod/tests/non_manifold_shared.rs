@@ -4,7 +4,10 @@
 //! the report names why not — the components, border points and non-manifold
 //! points it keeps, counted by reason. No non-manifold edge is made, duplicate
 //! triangles are gone, and the non-manifold points kept are at most those of the
-//! input. Skips with a notice where `../shared` is absent.
+//! input. The same with the topology free (`preserve_topology: false`: holes of
+//! three edges close, parts are removed whole), where border edges only get
+//! fewer too; with it kept, nothing is closed or removed. Skips with a notice
+//! where `../shared` is absent.
 
 mod common;
 
@@ -29,10 +32,12 @@ fn non_manifold_meshes_reach_the_target_or_say_why() {
         };
         seen += 1;
         let stats_in = MeshStats::of(&mesh);
-        for ratio in [0.1, 0.01] {
-            let (out, r) = simplify(&mesh, &SimplifyOptions::default().with_ratio(ratio))
-                .unwrap_or_else(|e| panic!("{}: {e}", row.file));
-            let what = format!("{} at {ratio}", row.file);
+        for (ratio, free) in [(0.1, false), (0.01, false), (0.1, true), (0.01, true)] {
+            let o = SimplifyOptions::default()
+                .with_ratio(ratio)
+                .with_preserve_topology(!free);
+            let (out, r) = simplify(&mesh, &o).unwrap_or_else(|e| panic!("{}: {e}", row.file));
+            let what = format!("{} at {ratio}, free topology {free}", row.file);
             out.validate().unwrap_or_else(|e| panic!("{what}: {e}"));
             let so = MeshStats::of(&out);
             assert_eq!(so.topology.duplicate_triangles, 0, "{what}");
@@ -42,6 +47,16 @@ fn non_manifold_meshes_reach_the_target_or_say_why() {
                 stats_in.topology.non_manifold_edges,
                 so.topology.non_manifold_edges
             );
+            if free {
+                assert!(
+                    so.topology.boundary_edges <= stats_in.topology.boundary_edges,
+                    "{what}: border edges {} -> {}",
+                    stats_in.topology.boundary_edges,
+                    so.topology.boundary_edges
+                );
+            } else {
+                assert_eq!((r.holes_closed, r.components_removed), (0, 0), "{what}");
+            }
             let nm_in = r.non_manifold_points_in.expect("QEM counts them");
             let kept = r.non_manifold_kept.expect("QEM reports them");
             assert!(kept.total <= nm_in, "{what}: {kept:?} of {nm_in}");
@@ -65,8 +80,9 @@ fn non_manifold_meshes_reach_the_target_or_say_why() {
                 }
             }
             eprintln!(
-                "{what}: {o} of {t} triangles ({:?}), non-manifold points {nm_in} -> {kept:?}",
-                r.stop_reason
+                "{what}: {o} of {t} triangles ({:?}), non-manifold points {nm_in} -> {kept:?}, \
+                 holes closed {}, parts removed {}",
+                r.stop_reason, r.holes_closed, r.components_removed
             );
         }
     }

@@ -116,6 +116,7 @@ def simplify(
     normals: Optional[np.ndarray] = None,
     uvs: Optional[np.ndarray] = None,
     colors: Optional[np.ndarray] = None,
+    free_topology: bool = False,
 ) -> Simplified:
     """Simplify a triangle mesh; returns ``(vertices, faces, report)``.
 
@@ -147,6 +148,9 @@ def simplify(
         normals: ``(n, 3)`` float per-vertex normals, carried to the output.
         uvs: ``(n, 2)`` float texture coordinates, carried to the output.
         colors: ``(n, 3)`` or ``(n, 4)`` colours, floats in ``[0, 1]`` or uint8.
+        free_topology: QEM, Melax: let holes of three edges close and separate
+            parts be removed whole where that reaches the target (report
+            ``holes_closed``, ``components_removed``); as ``--free-topology``.
 
     Returns:
         :class:`Simplified`: ``(vertices, faces, report)`` in the inputs' dtypes,
@@ -180,6 +184,7 @@ def simplify(
         normals=_array(normals),
         uvs=_array(uvs),
         colors=_array(colors),
+        free_topology=free_topology,
     )
     return Simplified(v, f, report, attributes, sources)
 

@@ -127,6 +127,9 @@ pub struct CollapseRecord {
     pub apexes: [u32; 2],
     /// Whether it was a non-edge pair contraction.
     pub non_edge: bool,
+    /// The hole's third point when the collapse closed a hole of three border
+    /// edges ([`OperatorLimits::close_holes`]), else [`DEAD`].
+    pub closed_hole: u32,
     /// The cost the cost model gave it.
     pub cost: f64,
     /// The error (a distance in mesh units) the cost model gave it.
@@ -143,6 +146,13 @@ pub struct OperatorLimits {
     /// Whether non-edge pairs may be contracted (only when topology need not be
     /// preserved).
     pub allow_non_edge: bool,
+    /// Whether a collapse may close a hole of three border edges: `u`, `v` and a
+    /// third border point `x` bound the hole, and merging `u` into `v` joins the
+    /// border edges `(u, x)` and `(v, x)` into one edge inside the surface (the
+    /// link condition refuses it otherwise, as it changes the topology). Only
+    /// when every point of the hole is a plain border point, the joined edge's
+    /// two triangles differ in their third corners and agree in orientation.
+    pub close_holes: bool,
 }
 
 impl Default for OperatorLimits {
@@ -150,6 +160,7 @@ impl Default for OperatorLimits {
         Self {
             fold_over_angle: std::f64::consts::FRAC_PI_2,
             allow_non_edge: false,
+            close_holes: false,
         }
     }
 }
@@ -203,6 +214,9 @@ pub struct Preview {
     /// How many triangles the collapse removes (two inside a surface, one on a
     /// border, one per sheet along a non-manifold edge, 0 for a non-edge pair).
     pub dying: usize,
+    /// The hole's third point when the collapse closes a hole of three border
+    /// edges ([`OperatorLimits::close_holes`]), else [`DEAD`].
+    pub closes_hole: u32,
 }
 
 /// True when a point of this kind may be removed or moved.

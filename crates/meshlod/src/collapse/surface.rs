@@ -288,6 +288,10 @@ pub struct Surface {
     /// The same for all of them (more than two on a non-manifold edge), and how many.
     last_wedge_map_all: [(u32, u32); MAX_SHEETS],
     last_dying: usize,
+    /// `(u, v, x)` when the last accepted [`Self::check`] closes the hole
+    /// `u, v, x` ([`OperatorLimits::close_holes`]; `x` is [`DEAD`] otherwise), for
+    /// the collapse that follows it.
+    pending_zip: [u32; 3],
 }
 
 #[inline(always)]
@@ -400,6 +404,7 @@ impl Surface {
             last_wedge_map: [(DEAD, DEAD); 2],
             last_wedge_map_all: [(DEAD, DEAD); MAX_SHEETS],
             last_dying: 0,
+            pending_zip: [DEAD; 3],
             fold_cos: 0.0,
         };
         s.build_fans();
@@ -1352,6 +1357,8 @@ impl Surface {
         preview.removed = u;
         preview.kept = v;
         preview.position = p;
+        preview.closes_hole = DEAD;
+        self.pending_zip = [u, v, DEAD];
         if u == v || !self.is_alive(u) || !self.is_alive(v) {
             return Err(Reject::Kind);
         }
@@ -1376,14 +1383,17 @@ impl Surface {
         let mut changed = std::mem::take(&mut preview.changed);
         let r = self.check_fans(u, v, v_moves, limits, &geo, &mut changed);
         preview.changed = changed;
-        let dying = r?;
+        let (dying, zip) = r?;
         preview.edge = dying > 0;
         preview.dying = dying;
+        preview.closes_hole = zip;
+        self.pending_zip = [u, v, zip];
         Ok(())
     }
 
     /// One pass over each fan: dying triangles, the link condition and the geometry
-    /// of the surviving triangles together. Returns the number of dying triangles.
+    /// of the surviving triangles together. Returns the number of dying triangles
+    /// and the third point of the hole the collapse closes ([`DEAD`] when none).
     /// Runs as the AVX2 build where the CPU has it ([`crate::isa`]; same bits).
     fn check_fans(
         &mut self,
@@ -1393,7 +1403,7 @@ impl Surface {
         limits: &OperatorLimits,
         geo: &Geometry,
         changed: &mut Vec<ChangedTriangle>,
-    ) -> Result<usize, Reject> {
+    ) -> Result<(usize, u32), Reject> {
         crate::isa::dispatch!(self.check_fans_impl(u, v, v_moves, limits, geo, changed))
     }
 
@@ -1406,7 +1416,7 @@ impl Surface {
         limits: &OperatorLimits,
         geo: &Geometry,
         changed: &mut Vec<ChangedTriangle>,
-    ) -> Result<usize, Reject> {
+    ) -> Result<(usize, u32), Reject> {
         // Fan of u: dying triangles, apexes, u's neighbours marked, and the
         // triangles that survive with u moved to p.
         let g = self.next_gen();
@@ -1493,15 +1503,25 @@ impl Surface {
         let sv = self.fan_slot[v as usize].start as usize;
         let lv = self.fan_slot[v as usize].len as usize;
         let (fans, tri, pos, mark) = (&self.fans[..], &self.tri[..], &self.pos[..], &self.mark[..]);
+        // Another common neighbour breaks the link condition, unless it is the
+        // third point of a hole this collapse may close (checked below).
+        let may_zip = limits.close_holes && dying == 1;
+        let mut zip = DEAD;
         for &t in &fans[sv..sv + lv] {
             let tt = tri[t as usize];
             for &x in &tt {
-                if x != v && x != u && mark[x as usize] == g {
+                if x != v
+                    && x != u
+                    && mark[x as usize] == g
+                    && !(may_zip && (zip == DEAD || zip == x))
+                {
                     return Err(if dying == 0 {
                         Reject::Pair
                     } else {
                         Reject::Link
                     });
+                } else if x != v && x != u && mark[x as usize] == g {
+                    zip = x;
                 }
             }
             if v_moves && !tt.contains(&u) {
@@ -1509,7 +1529,10 @@ impl Surface {
             }
         }
         if dying == 0 {
-            return Ok(0);
+            return Ok((0, DEAD));
+        }
+        if zip != DEAD && !self.closes_hole(u, v, zip, opp[0]) {
+            return Err(Reject::Link);
         }
         // Duplicate triangles: both u and v have a triangle over the two apexes.
         // u is a single-fan manifold point, so it can only have one when its fan is
@@ -1573,7 +1596,50 @@ impl Surface {
                 }
             }
         }
-        Ok(dying)
+        Ok((dying, zip))
+    }
+
+    /// Whether collapsing border edge `(u, v)` (its triangle's third corner
+    /// `apex`) closes the hole `u, v, x`, their only other common neighbour, into
+    /// a manifold surface: `u`, `v` and `x` are plain border points (one disc, two
+    /// border edges each), so `(u, x)` and `(v, x)` are the hole's other two
+    /// edges; the triangles on them differ in their third corners (else they
+    /// would become one triangle twice) and run along `x` in opposite directions
+    /// once `u` is `v` (so the joined edge keeps a consistent orientation).
+    ///
+    /// ```text
+    ///   u ------- v        the hole u, v, x: its edges (u, x) and (v, x)
+    ///    \  hole /         become one edge inside the surface, with the
+    ///     \     /          triangles (x, u, a) and (v, x, b) on its sides
+    ///        x
+    /// ```
+    fn closes_hole(&self, u: u32, v: u32, x: u32, apex: u32) -> bool {
+        let border = |p: u32| self.kind[p as usize] == VertexKind::Border;
+        if !(border(u) && border(v) && border(x)) || x == apex {
+            return false;
+        }
+        // The one triangle of `w`'s fan on edge (w, x), if there is exactly one.
+        let only = |w: u32| {
+            let mut it = self
+                .fan(w)
+                .iter()
+                .filter(|&&t| self.tri[t as usize].contains(&x));
+            match (it.next(), it.next()) {
+                (Some(&t), None) => Some(t),
+                _ => None,
+            }
+        };
+        let (Some(tu), Some(tv)) = (only(u), only(v)) else {
+            return false;
+        };
+        let (a, b) = (self.tri[tu as usize], self.tri[tv as usize]);
+        let third = |tt: [u32; 3], w: u32| tt[0] ^ tt[1] ^ tt[2] ^ w ^ x;
+        // `q` follows `p` in the corner order of `tt`.
+        let follows = |tt: [u32; 3], p: u32, q: u32| {
+            let k = tt.iter().position(|&c| c == p).unwrap_or(0);
+            tt[(k + 1) % 3] == q
+        };
+        third(a, u) != third(b, v) && follows(a, u, x) == follows(b, x, v)
     }
 
     /// Whether a triangle of `u` not over `v` has its two other corners among
@@ -1706,6 +1772,18 @@ impl Surface {
         }
         self.pos[v as usize] = p;
         self.update_kinds(u, v, &dying.apexes_all[..n_all], non_edge, new_len);
+        let closed_hole = if self.pending_zip[..2] == [u, v] {
+            self.pending_zip[2]
+        } else {
+            DEAD
+        };
+        self.pending_zip = [DEAD; 3];
+        if closed_hole != DEAD {
+            // The hole's third point is inside the surface now; `v` was
+            // classified again above (it was a border point).
+            self.classify(closed_hole);
+            self.kind_changed[n_all] = closed_hole;
+        }
 
         CollapseRecord {
             removed: u,
@@ -1717,6 +1795,7 @@ impl Surface {
             removed_count: dying.count as u32,
             apexes: dying.apexes,
             non_edge,
+            closed_hole,
             cost: 0.0,
             error: 0.0,
         }
@@ -1948,6 +2027,38 @@ impl Surface {
         if new_len == 0 {
             self.kind[v as usize] = VertexKind::Complex;
         }
+    }
+
+    /// Removes every live triangle around `points` and leaves them dead (a whole
+    /// part of the surface when `points` are all of a connected component's
+    /// points: nothing else loses a triangle). Returns how many triangles died.
+    /// O(the points' fans).
+    pub fn remove_part(&mut self, points: &[u32]) -> usize {
+        let mut removed = 0;
+        for &p in points {
+            let pi = p as usize;
+            if self.fan_slot[pi].len == 0 {
+                continue;
+            }
+            let s = self.fan_slot[pi].start as usize;
+            for i in s..s + self.fan_slot[pi].len as usize {
+                let t = self.fans[i] as usize;
+                if self.tri[t][0] != DEAD {
+                    self.tri[t] = [DEAD; 3];
+                    self.live_tris -= 1;
+                    removed += 1;
+                }
+            }
+            self.fan_garbage += self.fan_slot[pi].cap as usize;
+            self.fan_slot[pi].len = 0;
+            self.fan_slot[pi].cap = 0;
+            if self.kind[pi] != VertexKind::Locked {
+                self.kind[pi] = VertexKind::Complex;
+            }
+            self.boundary[pi] = false;
+            self.nm_reason[pi] = 0;
+        }
+        removed
     }
 
     /// Apexes of the last collapse whose kind or boundary flag changed ([`DEAD`]

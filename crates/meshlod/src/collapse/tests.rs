@@ -544,3 +544,95 @@ fn seam_junction_slides_along_its_seam() {
     charts.sort_unstable();
     assert_eq!(charts, vec![0, 1, 2]);
 }
+
+/// The tetrahedron without its face `(0, 2, 1)`: the hole `0, 1, 2` has border
+/// edges whose triangles share their third corner, 3, so closing it (collapsing
+/// border edge 0–1) would make `(1, 2, 3)` twice: refused even when holes may
+/// close.
+/// ```text
+///        3 (inside)
+///      / | \
+///     0--+--2     hole: 0, 1, 2
+///      \ | /
+///        1
+/// ```
+#[test]
+fn closing_a_hole_that_would_duplicate_a_triangle_is_refused() {
+    let mut m = generate::tetrahedron();
+    m.triangles.remove(0);
+    let mut s = surface(&m);
+    let close = OperatorLimits {
+        close_holes: true,
+        ..limits()
+    };
+    let mut pv = Preview::default();
+    assert_eq!(s.kind(0), VertexKind::Border);
+    assert_eq!(
+        s.check(0, 1, s.position(1), &close, &mut pv),
+        Err(Reject::Link)
+    );
+}
+
+/// A tube (an icosphere without two opposite triangles): collapsing a border
+/// edge of a hole closes it when holes may close, and only then; the hole's
+/// three points are inside the surface afterwards.
+#[test]
+fn a_border_edge_collapse_closes_a_hole_of_three_edges() {
+    let m = crate::simplify::tests_topology::tube();
+    let mut s = surface(&m);
+    let border: Vec<u32> = (0..s.point_count() as u32)
+        .filter(|&p| s.is_boundary(p))
+        .collect();
+    assert_eq!(border.len(), 6);
+    // A border neighbour of `u` is on its hole (the holes are apart).
+    let u = border[0];
+    let v = *border[1..].iter().find(|&&q| s.shares_edge(u, q)).unwrap();
+    let mut pv = Preview::default();
+    assert_eq!(
+        s.check(u, v, s.position(v), &limits(), &mut pv),
+        Err(Reject::Link)
+    );
+    let close = OperatorLimits {
+        close_holes: true,
+        ..limits()
+    };
+    s.check(u, v, s.position(v), &close, &mut pv).unwrap();
+    let x = pv.closes_hole;
+    assert!(x != DEAD && x != u && x != v && s.is_boundary(x));
+    let rec = s.collapse(u, v, s.position(v));
+    assert_eq!(rec.closed_hole, x);
+    assert_eq!(rec.removed_count, 1);
+    assert_consistent(&s);
+    for p in [v, x] {
+        assert!(!s.is_boundary(p), "{p} is still on a border");
+        assert_eq!(s.kind(p), VertexKind::Manifold);
+    }
+    assert!(s.kind_changes().contains(&x));
+    let left = (0..s.point_count() as u32)
+        .filter(|&p| s.is_alive(p) && s.is_boundary(p))
+        .count();
+    assert_eq!(left, 3, "the other hole's points");
+}
+
+/// Two separate triangles: removing the points of one removes it whole and
+/// nothing of the other.
+#[test]
+fn remove_part_removes_exactly_its_triangles() {
+    let m = Mesh::from_triangles(
+        vec![
+            [0.0, 0.0, 0.0],
+            [1.0, 0.0, 0.0],
+            [0.0, 1.0, 0.0],
+            [5.0, 0.0, 0.0],
+            [6.0, 0.0, 0.0],
+            [5.0, 1.0, 0.0],
+        ],
+        vec![[0, 1, 2], [3, 4, 5]],
+    );
+    let mut s = surface(&m);
+    assert_eq!(s.remove_part(&[3, 4, 5]), 1);
+    assert_eq!(s.live_triangles(), 1);
+    assert!((3..6).all(|p| !s.is_alive(p)));
+    assert!((0..3).all(|p| s.is_alive(p)));
+    assert_consistent(&s);
+}

@@ -59,7 +59,9 @@
 //! 3–4% more instructions.
 
 use super::heap::{Heap, Item};
+use super::prune::Parts;
 use super::{Observer, Outcome, Rejections, StopReason, StopRule};
+use crate::collapse::DEAD;
 use crate::collapse::{Merge, Moves, OperatorLimits, Preview, Reject, Surface};
 use crate::cost::{Candidate, CostModel};
 use crate::filter::Filter;
@@ -76,6 +78,15 @@ pub struct EdgeCollapseOptions {
     /// Extra non-edge pairs to consider (point ids), e.g. from
     /// [`crate::simplify::SimplifyOptions::pair_threshold`].
     pub extra_pairs: Vec<[u32; 2]>,
+    /// Whether separate parts (connected components) may be removed whole
+    /// (see `decimate/prune.rs`), at an error of the largest distance from their points
+    /// to the rest of the surface: a part goes before a collapse of a larger
+    /// error, and when no collapse is left above the target, parts go cheapest
+    /// first if that reaches the target. The part of the largest radius is never
+    /// removed, nor one above the maximum error or whose removal would land more
+    /// than 1% below the target.
+    /// Not with non-edge pairs (they join parts).
+    pub prune_parts: bool,
 }
 
 /// Pairs rejected by a check that depends on their neighbourhood (every legality
@@ -330,6 +341,7 @@ impl<C: CostModel + ?Sized> Driver<'_, C> {
         stop: &StopRule,
         scan: &mut ScanCounts,
         parked: &mut Parked,
+        parts: Option<&mut Parts>,
         out: &mut Outcome,
     ) -> bool {
         if scan.collapses > 0 && out.rescans < MAX_RESCANS {
@@ -341,6 +353,15 @@ impl<C: CostModel + ?Sized> Driver<'_, C> {
             self.push_all();
             return true;
         }
+        // No collapse is left: parts are removed in order of radius if that
+        // reaches the target (each at most as far below it as the slack allows);
+        // otherwise none (a large part for a few triangles is a poor trade).
+        let pruning = parts.is_some();
+        if let Some(parts) = parts {
+            if parts.remove_to_target(self.surface, stop, out) {
+                return true;
+            }
+        }
         if scan.error_blocked > 0 {
             out.stop_reason = StopReason::MaxError;
             out.stop_detail = format!(
@@ -349,7 +370,8 @@ impl<C: CostModel + ?Sized> Driver<'_, C> {
             );
         } else {
             out.stop_reason = StopReason::NoLegalCollapse;
-            out.stop_detail = no_legal_collapse_detail(self.surface, &out.rejections);
+            out.stop_detail =
+                no_legal_collapse_detail(self.surface, &self.limits, pruning, &out.rejections);
         }
         false
     }
@@ -498,6 +520,9 @@ impl<C: CostModel + ?Sized> Driver<'_, C> {
         if record.non_edge {
             out.non_edge_contractions += 1;
         }
+        if record.closed_hole != DEAD {
+            out.holes_closed += 1;
+        }
         out.max_error = out.max_error.max(record.error);
         observer.collapsed(&record);
         if out.collapses % PROGRESS_EVERY == 0 {
@@ -642,7 +667,12 @@ fn count_rejection(rj: &mut Rejections, r: Reject) {
 
 /// The stop sentence when no legal collapse is left: how many of the live points
 /// may not move, and the rejections so far by reason.
-fn no_legal_collapse_detail(surface: &Surface, r: &Rejections) -> String {
+fn no_legal_collapse_detail(
+    surface: &Surface,
+    limits: &OperatorLimits,
+    pruning: bool,
+    r: &Rejections,
+) -> String {
     let (mut live, mut fixed) = (0usize, 0usize);
     for p in 0..surface.point_count() as u32 {
         if surface.is_alive(p) {
@@ -654,11 +684,22 @@ fn no_legal_collapse_detail(surface: &Surface, r: &Rejections) -> String {
     }
     let (components, border) = surface.components_and_border_points();
     let nm = surface.non_manifold_census();
+    let parts = if pruning {
+        "the largest part is kept, and no part above the maximum error or whose \
+         removal would land more than 1% below the target"
+    } else {
+        "no part is collapsed away"
+    };
+    let holes = if limits.close_holes {
+        "a hole is closed once down to three border edges between plain border points"
+    } else {
+        "holes are not closed"
+    };
     format!(
         "no legal collapse left: {fixed} of the {live} points left may not move \
          (seam or material-border junctions, non-manifold or locked points); \
-         the surface keeps its {components} components (no part is collapsed away), \
-         {border} border points (holes are not closed) and {} non-manifold points \
+         the surface keeps its {components} components ({parts}), \
+         {border} border points ({holes}) and {} non-manifold points \
          ({} chain corners, {} on a border, {} on a seam, {} irregular, {} pinches, \
          {} chain points); \
          rejected so far: link {}, fold-over {}, degenerate {}, duplicate {}, \
@@ -767,6 +808,11 @@ fn run_impl<C: CostModel + ?Sized>(
         scratch: Vec::new(),
     };
     d.push_all();
+    let mut parts = if options.prune_parts && !non_edge_pairs {
+        Parts::new(d.surface)
+    } else {
+        None
+    };
     let mut preview = Preview::default();
     let mut scan = ScanCounts::default();
     let mut parked = Parked::new();
@@ -777,7 +823,7 @@ fn run_impl<C: CostModel + ?Sized>(
             break;
         }
         let Some(e) = d.heap.pop() else {
-            if d.ran_dry(&stop, &mut scan, &mut parked, &mut out) {
+            if d.ran_dry(&stop, &mut scan, &mut parked, parts.as_mut(), &mut out) {
                 continue;
             }
             break;
@@ -839,6 +885,14 @@ fn run_impl<C: CostModel + ?Sized>(
         let Some(exact) = d.screen(e, &c, &preview, &mut out.rejections, &mut parked) else {
             continue;
         };
+        if let Some(parts) = parts.as_mut() {
+            if parts.remove_below(d.surface, c.error, &stop, &mut out) {
+                // Parts whose removal costs less than this collapse went first:
+                // it comes up again (its neighbourhood may be gone).
+                d.heap.push(e);
+                continue;
+            }
+        }
         d.perform(&c, p, exact, observer, &mut out);
         scan.collapses += 1;
         d.prefetch_next_triangles();

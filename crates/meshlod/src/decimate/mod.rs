@@ -14,6 +14,7 @@
 pub mod cluster;
 pub mod edge_collapse;
 mod heap;
+mod prune;
 pub mod vertex_removal;
 
 use crate::collapse::{CollapseRecord, Surface};
@@ -175,6 +176,11 @@ pub struct Outcome {
     /// since soft filters rank collapses instead of vetoing them (kept for
     /// compatibility).
     pub soft_filters_relaxed: bool,
+    /// Holes of three border edges closed by a collapse
+    /// ([`crate::collapse::OperatorLimits::close_holes`]).
+    pub holes_closed: usize,
+    /// Separate parts removed whole ([`edge_collapse::EdgeCollapseOptions::prune_parts`]).
+    pub components_removed: usize,
 }
 
 impl Outcome {
@@ -190,6 +196,8 @@ impl Outcome {
             rescans: 0,
             retries: 0,
             soft_filters_relaxed: false,
+            holes_closed: 0,
+            components_removed: 0,
         }
     }
 
@@ -205,5 +213,7 @@ impl Outcome {
         self.rescans += later.rescans;
         self.retries += later.retries;
         self.soft_filters_relaxed |= later.soft_filters_relaxed;
+        self.holes_closed += later.holes_closed;
+        self.components_removed += later.components_removed;
     }
 }

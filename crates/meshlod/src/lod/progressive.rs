@@ -147,9 +147,10 @@ impl ProgressiveMesh {
                 "use the melax method, or qem with endpoint placement",
             ));
         }
-        if !options.preserve_topology && options.pair_threshold.is_some() {
+        if !options.preserve_topology {
             return Err(PmError::NotHalfEdge(
-                "non-edge pair contractions cannot be recorded",
+                "topology changes (non-edge pair contractions, closed holes, removed parts) \
+                 cannot be recorded",
             ));
         }
         let mut rec = Recorder::default();

@@ -56,7 +56,8 @@ const CHUNK_RATIO_FACTOR: f64 = 8.0;
 /// The chunk size when `options` on `mesh` go through the chunked path: QEM with
 /// optimal or midpoint placement on a mesh of [`CHUNKED_FROM`] triangles or more,
 /// without the passes that need the whole run's merge history (`fit_iterations`,
-/// `edge_swaps`) and without non-edge pairs.
+/// `edge_swaps`) and with the topology kept (no closed holes, removed parts or
+/// non-edge pairs).
 pub(super) fn chunking(mesh: &Mesh, options: &SimplifyOptions) -> Option<usize> {
     let n = mesh.triangles.len();
     let keep = options.target_for(n) as f64 / n.max(1) as f64 * CHUNK_RATIO_FACTOR;
@@ -66,7 +67,7 @@ pub(super) fn chunking(mesh: &Mesh, options: &SimplifyOptions) -> Option<usize> 
         && options.placement != Placement::Endpoint
         && options.fit_iterations == 0
         && !options.edge_swaps
-        && (options.preserve_topology || options.pair_threshold.is_none())
+        && options.preserve_topology
         && mesh.triangles.len() >= CHUNKED_FROM;
     eligible.then_some(CHUNK_TRIANGLES)
 }
@@ -495,6 +496,8 @@ fn chunked_report(run: ChunkedRun<'_>) -> Report {
         rescans,
         retries,
         soft_filters_relaxed: false,
+        holes_closed: 0,
+        components_removed: 0,
         facing_flips: run.facing.map_or(0, |f| f.flips),
         facing_away: run.facing.map(|f| [f.before, f.after]),
         fit_moved: 0,

@@ -558,7 +558,7 @@ fn pair_contraction_joins_parts() {
 
 /// Random height fields with holes punched in and junk appended: every invariant
 /// holds at every ratio and nothing panics.
-fn random_mesh() -> impl Strategy<Value = Mesh> {
+pub(super) fn random_mesh() -> impl Strategy<Value = Mesh> {
     (
         3u32..14,
         3u32..14,

@@ -132,10 +132,11 @@ pub struct SimplifyArgs {
     pub pair_threshold: Option<f64>,
     /// qem, melax: let the topology change where that reaches the target (as
     /// MeshLab's QEM without "preserve topology"): a hole closes once it is down
-    /// to three border edges, and a separate part is removed whole once the
-    /// collapses cost more than its radius (the largest part always stays). For
-    /// meshes of many parts and holes (CAD assemblies, scans) that otherwise stop
-    /// far above low targets. Never makes fold-overs or non-manifold edges.
+    /// to three border edges, a separate part is removed whole once the collapses
+    /// cost more than its distance to the rest (the largest part always stays),
+    /// and points where parts touch may slide. For meshes of many parts and holes
+    /// (CAD assemblies, scans) that otherwise stop far above low targets. Never
+    /// makes fold-overs or non-manifold edges.
     #[arg(long, help_heading = heading::QEM)]
     pub free_topology: bool,
     /// qem: weights of the attributes in the cost, e.g. `normal=0.002,uv=0.1,color=0.1`

@@ -966,6 +966,7 @@ fn decimate_mesh(
             track_merges,
             move_junctions: options.moves_junctions(),
             move_non_manifold: options.moves_junctions(),
+            move_pinches: !options.preserve_topology,
             permissive: options.permissive && options.method == Method::Qem,
         },
     );

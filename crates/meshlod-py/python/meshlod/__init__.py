@@ -148,9 +148,10 @@ def simplify(
         normals: ``(n, 3)`` float per-vertex normals, carried to the output.
         uvs: ``(n, 2)`` float texture coordinates, carried to the output.
         colors: ``(n, 3)`` or ``(n, 4)`` colours, floats in ``[0, 1]`` or uint8.
-        free_topology: QEM, Melax: let holes of three edges close and separate
-            parts be removed whole where that reaches the target (report
-            ``holes_closed``, ``components_removed``); as ``--free-topology``.
+        free_topology: QEM, Melax: let holes of three edges close, separate
+            parts be removed whole and points where parts touch slide, where that
+            reaches the target (report ``holes_closed``,
+            ``components_removed``); as ``--free-topology``.
 
     Returns:
         :class:`Simplified`: ``(vertices, faces, report)`` in the inputs' dtypes,

@@ -150,8 +150,9 @@ pub struct OperatorLimits {
     /// third border point `x` bound the hole, and merging `u` into `v` joins the
     /// border edges `(u, x)` and `(v, x)` into one edge inside the surface (the
     /// link condition refuses it otherwise, as it changes the topology). Only
-    /// when every point of the hole is a plain border point, the joined edge's
-    /// two triangles differ in their third corners and agree in orientation.
+    /// when every point of the hole is a border point (or a sliding pinch on a
+    /// border, [`BuildOptions::move_pinches`]), the joined edge's two triangles
+    /// differ in their third corners and agree in orientation.
     pub close_holes: bool,
 }
 

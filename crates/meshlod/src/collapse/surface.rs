@@ -122,6 +122,13 @@ pub struct BuildOptions<'a> {
     /// to its line). Chain ends and points where chains meet, meet a border, or
     /// where several fans touch at one point stay. Default `false`; QEM turns it on.
     pub move_non_manifold: bool,
+    /// Let pinches slide: a point where several fans touch (without a
+    /// non-manifold edge) may be removed by a half-edge collapse along an edge of
+    /// one of its fans (a border edge when it is on a border) onto its neighbour
+    /// there, which then holds every fan: the pinch moves by one edge, the fans
+    /// stay apart (the link condition), and the point no longer pins the triangles
+    /// around it. Default `false`; free topology turns it on.
+    pub move_pinches: bool,
 }
 
 /// What the up-front repair removed from the input.
@@ -275,6 +282,7 @@ pub struct Surface {
     /// `false` without that option.
     junction: Vec<bool>,
     move_junctions: bool,
+    move_pinches: bool,
     permissive: bool,
     /// Per point: a point inside a non-manifold chain that may slide along it
     /// ([`BuildOptions::move_non_manifold`]); empty without that option.
@@ -393,6 +401,7 @@ impl Surface {
                 Vec::new()
             },
             move_junctions,
+            move_pinches: options.move_pinches,
             permissive: options.permissive,
             chain: if options.move_non_manifold {
                 vec![false; np]
@@ -625,6 +634,21 @@ impl Surface {
         super::is_movable(self.kind[p as usize])
             || self.junction.get(p as usize).copied().unwrap_or(false)
             || self.is_chain(p)
+            || self.slides_pinch(p)
+    }
+
+    /// Whether `p` is a pinch that may slide ([`BuildOptions::move_pinches`]).
+    #[inline]
+    fn slides_pinch(&self, p: u32) -> bool {
+        self.move_pinches && self.nm_reason[p as usize] == NM_PINCH
+    }
+
+    /// Whether a collapse removing `u` takes along its wedges that no triangle over
+    /// the collapsed edge maps (a junction, a point crossing its seam, a sliding
+    /// pinch's other fans).
+    #[inline]
+    fn carries_wedges(&self, u: u32) -> bool {
+        self.permissive || self.junction.get(u as usize) == Some(&true) || self.slides_pinch(u)
     }
 
     /// The live non-manifold points (on an edge of more than two triangles, or
@@ -1319,6 +1343,11 @@ impl Surface {
                     seam || crosses
                 }
             }
+            // A pinch slides along an edge of one of its fans (a border edge
+            // when it is on a border).
+            VertexKind::Complex if self.slides_pinch(x) => {
+                border_edge || !self.boundary[x as usize]
+            }
             _ => false,
         };
         let (a_to_b, b_to_a) = (can(a, ka, kb), can(b, kb, ka));
@@ -1585,7 +1614,7 @@ impl Surface {
             }
             // A junction, or a seam point crossing its seam, takes its other wedges
             // along (see `redirect_corners`).
-            let takes_wedges = self.permissive || self.junction.get(u as usize) == Some(&true);
+            let takes_wedges = self.carries_wedges(u);
             for &t in self.fan(u) {
                 if takes_wedges {
                     break;
@@ -1601,9 +1630,10 @@ impl Surface {
 
     /// Whether collapsing border edge `(u, v)` (its triangle's third corner
     /// `apex`) closes the hole `u, v, x`, their only other common neighbour, into
-    /// a manifold surface: `u`, `v` and `x` are plain border points (one disc, two
-    /// border edges each), so `(u, x)` and `(v, x)` are the hole's other two
-    /// edges; the triangles on them differ in their third corners (else they
+    /// a manifold surface: `u`, `v` and `x` are border points (one disc, two
+    /// border edges each) or sliding pinches on a border
+    /// ([`BuildOptions::move_pinches`]), `(u, x)` and `(v, x)` carry one triangle
+    /// each (the hole's other two edges); the triangles on them differ in their third corners (else they
     /// would become one triangle twice) and run along `x` in opposite directions
     /// once `u` is `v` (so the joined edge keeps a consistent orientation).
     ///
@@ -1614,7 +1644,10 @@ impl Surface {
     ///        x
     /// ```
     fn closes_hole(&self, u: u32, v: u32, x: u32, apex: u32) -> bool {
-        let border = |p: u32| self.kind[p as usize] == VertexKind::Border;
+        let border = |p: u32| {
+            self.kind[p as usize] == VertexKind::Border
+                || (self.slides_pinch(p) && self.boundary[p as usize])
+        };
         if !(border(u) && border(v) && border(x)) || x == apex {
             return false;
         }
@@ -1750,9 +1783,7 @@ impl Surface {
         if v_moves && !self.attrs.is_empty() {
             self.interpolate_attributes(u, v, p);
         }
-        if (self.permissive || self.junction.get(u as usize) == Some(&true))
-            && !self.attrs.is_empty()
-        {
+        if self.carries_wedges(u) && !self.attrs.is_empty() {
             self.carry_unmapped_wedges(u, v, p);
         }
         // `u`'s fan is `fans[su..su + lu]` until `merge_fans` releases it (the steps

@@ -636,3 +636,58 @@ fn remove_part_removes_exactly_its_triangles() {
     assert!((0..3).all(|p| s.is_alive(p)));
     assert_consistent(&s);
 }
+
+/// Two icospheres touching at one point `p` (the second is the first moved by
+/// twice `p`, so its point `-p` lands on `p`): a pinch, two fans. Kept, it never
+/// moves; sliding, it moves onto a neighbour in one sphere, which then holds
+/// both fans: still one pinch, the spheres still apart but for it.
+/// ```text
+///    ( A )p( B )      p slides to its neighbour q in A:   ( A )q( B )
+/// ```
+#[test]
+fn a_pinch_slides_onto_a_neighbour_only_when_allowed() {
+    let mut m = generate::icosphere(1);
+    let (p, _) = m
+        .positions
+        .iter()
+        .enumerate()
+        .max_by(|a, b| a.1[0].total_cmp(&b.1[0]))
+        .unwrap();
+    let shift = m.positions[p].map(|x| 2.0 * x);
+    let mut b = m.clone();
+    for q in &mut b.positions {
+        for k in 0..3 {
+            q[k] += shift[k];
+        }
+    }
+    m.append(&b, 0);
+    for slide in [false, true] {
+        let (mut s, _) = Surface::build(
+            &m,
+            &BuildOptions {
+                move_pinches: slide,
+                ..BuildOptions::default()
+            },
+        );
+        assert_eq!(s.non_manifold_census().pinch, 1);
+        let u = (0..s.point_count() as u32)
+            .find(|&x| s.kind(x) == VertexKind::Complex)
+            .unwrap();
+        let mut nb = Vec::new();
+        s.neighbours(u, &mut nb);
+        let v = nb[0];
+        let mv = s.moves(u, v, false);
+        assert_eq!(slide, mv.is_some_and(|m| m.a_to_b), "slide {slide}");
+        assert_eq!(s.may_move(u), slide);
+        if !slide {
+            continue;
+        }
+        let mut pv = Preview::default();
+        s.check(u, v, s.position(v), &limits(), &mut pv).unwrap();
+        s.collapse(u, v, s.position(v));
+        assert_consistent(&s);
+        assert_eq!(s.non_manifold_census().pinch, 1);
+        assert_eq!(s.kind(v), VertexKind::Complex);
+        assert_eq!(s.components_and_border_points(), (1, 0));
+    }
+}

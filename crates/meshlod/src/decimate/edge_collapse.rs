@@ -691,7 +691,7 @@ fn no_legal_collapse_detail(
         "no part is collapsed away"
     };
     let holes = if limits.close_holes {
-        "a hole is closed once down to three border edges between plain border points"
+        "a hole is closed once down to three border edges between border points or pinches"
     } else {
         "holes are not closed"
     };

@@ -113,6 +113,7 @@ pub fn simplify_levels(
             track_merges: false,
             move_junctions: options.moves_junctions(),
             move_non_manifold: options.moves_junctions(),
+            move_pinches: !options.preserve_topology,
             permissive: options.permissive && options.method == Method::Qem,
         },
     );

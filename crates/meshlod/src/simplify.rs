@@ -129,10 +129,14 @@ pub struct SimplifyOptions {
     /// its attributes (other points merged onto it leave its normals, UVs and
     /// colours as they were). Default `None`. Must have one entry per vertex.
     pub locked_vertices: Option<Vec<bool>>,
-    /// Keep the topology: only edges are collapsed. When `false` and
-    /// [`Self::pair_threshold`] is set, close non-edge pairs may be contracted too
+    /// Keep the topology: only edges are collapsed, every hole and part stays.
+    /// When `false` (free topology, QEM and Melax; `--free-topology`): a hole
+    /// closes once down to three border edges, separate parts are removed whole
+    /// at their distance to the rest, and pinches slide (see
+    /// `docs/methods/qem.md`, "Free topology"; not on the chunked path); with
+    /// [`Self::pair_threshold`] set, close non-edge pairs are contracted too
     /// (joining separate parts; this can change the genus and creates non-manifold
-    /// vertices where parts join). Default `true`.
+    /// vertices where parts join), and parts are then not removed. Default `true`.
     pub preserve_topology: bool,
     /// Weight of the boundary constraint planes (plane through a border edge,
     /// perpendicular to its triangle), relative to area weights: a border edge of

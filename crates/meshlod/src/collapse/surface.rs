@@ -1566,7 +1566,8 @@ impl Surface {
         // Duplicate triangles: both u and v have a triangle over the two apexes.
         // u is a single-fan manifold point, so it can only have one when its fan is
         // exactly the three triangles (u,v,a), (u,a,b), (u,b,v).
-        if dying == 2 && self.fan_slot[u as usize].len <= 3 {
+        // (A sliding pinch has other fans: its own fan may be any size.)
+        if dying == 2 && (self.fan_slot[u as usize].len <= 3 || self.slides_pinch(u)) {
             let has = |s: &Self, w: u32, other: u32| {
                 s.fan(w).iter().any(|&t| {
                     let tt = s.tri[t as usize];
@@ -2065,6 +2066,7 @@ impl Surface {
     /// points: nothing else loses a triangle). Returns how many triangles died.
     /// O(the points' fans).
     pub fn remove_part(&mut self, points: &[u32]) -> usize {
+        self.pending_zip = [DEAD; 3];
         let mut removed = 0;
         for &p in points {
             let pi = p as usize;

@@ -358,7 +358,7 @@ impl<C: CostModel + ?Sized> Driver<'_, C> {
         // otherwise none (a large part for a few triangles is a poor trade).
         let pruning = parts.is_some();
         if let Some(parts) = parts {
-            if parts.remove_to_target(self.surface, stop, out) {
+            if parts.remove_to_target(self.surface, &mut self.version, stop, out) {
                 return true;
             }
         }
@@ -537,9 +537,9 @@ impl<C: CostModel + ?Sized> Driver<'_, C> {
     #[inline(always)]
     fn requeue_after(&mut self, u: u32, v: u32) {
         self.version[v as usize] = self.version[v as usize].wrapping_add(1);
-        // The removed point's entries go stale too: a point only ever dies as the
-        // removed end of a collapse (the operator lets nothing else vanish), so a
-        // matching stamp alone means both points are alive.
+        // The removed point's entries go stale too: a point dies as the removed
+        // end of a collapse or in a removed part (whose points' versions are
+        // bumped too), so a matching stamp alone means both points are alive.
         self.version[u as usize] = self.version[u as usize].wrapping_add(1);
         if !self.partners.is_empty() {
             self.forward[u as usize] = v;
@@ -808,7 +808,7 @@ fn run_impl<C: CostModel + ?Sized>(
         scratch: Vec::new(),
     };
     d.push_all();
-    let mut parts = if options.prune_parts && !non_edge_pairs {
+    let mut parts = if options.prune_parts && !options.limits.allow_non_edge {
         Parts::new(d.surface)
     } else {
         None
@@ -886,7 +886,7 @@ fn run_impl<C: CostModel + ?Sized>(
             continue;
         };
         if let Some(parts) = parts.as_mut() {
-            if parts.remove_below(d.surface, c.error, &stop, &mut out) {
+            if parts.remove_below(d.surface, &mut d.version, c.error, &stop, &mut out) {
                 // Parts whose removal costs less than this collapse went first:
                 // it comes up again (its neighbourhood may be gone).
                 d.heap.push(e);

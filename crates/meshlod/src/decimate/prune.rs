@@ -148,16 +148,28 @@ impl Parts {
     /// samples, and from those of removed parts it carries, to the surface of
     /// the parts not removed but `i` (∞ when there is none).
     fn error(&self, i: u32) -> f64 {
+        self.error_up_to(i, f64::INFINITY).0
+    }
+
+    /// [`Self::error`], stopping at the first sample farther than `bound`:
+    /// `(error, true)`, or `(a lower bound above bound, false)`.
+    fn error_up_to(&self, i: u32, bound: f64) -> (f64, bool) {
         let (s, e) = self.sample_ranges[i as usize];
         let carried = self.carried[i as usize].iter().map(|&k| k as usize);
+        let bound2 = bound * bound;
         let mut far = 0.0f64;
         for k in (s..e).chain(carried) {
             match self.nearest_other(self.samples[k], i) {
-                Some((d2, _)) => far = far.max(d2),
-                None => return f64::INFINITY,
+                Some((d2, _)) => {
+                    far = far.max(d2);
+                    if far > bound2 {
+                        return (far.sqrt(), false);
+                    }
+                }
+                None => return (f64::INFINITY, false),
             }
         }
-        far.sqrt()
+        (far.sqrt(), true)
     }
 
     /// The live triangles of part `i`: each has its three corners in it.
@@ -182,9 +194,11 @@ impl Parts {
             if self.done[i as usize] {
                 continue;
             }
-            let exact = self.error(i);
-            if exact.to_bits() > bits {
-                self.queue.push(Reverse((exact.to_bits(), i)));
+            // Only whether it is within `bound` matters now: a sample beyond it
+            // is a new lower bound.
+            let (exact, complete) = self.error_up_to(i, bound);
+            if !complete || exact.to_bits() > bits {
+                self.queue.push(Reverse((exact.to_bits().max(bits), i)));
                 continue;
             }
             return Some((i, exact));
@@ -199,6 +213,7 @@ impl Parts {
     fn remove(
         &mut self,
         surface: &mut Surface,
+        version: &mut [u32],
         i: u32,
         error: f64,
         stop: &StopRule,
@@ -216,6 +231,10 @@ impl Parts {
         }
         let (s, e) = self.ranges[i as usize];
         surface.remove_part(&self.points[s..e]);
+        // Their queued pairs go stale (the sweep keeps entries by stamp).
+        for &p in &self.points[s..e] {
+            version[p as usize] = version[p as usize].wrapping_add(1);
+        }
         self.removed[i as usize] = true;
         // Its samples and those it carried now measure against the parts left:
         // each goes to the part nearest it, whose removal error it raises.
@@ -224,7 +243,11 @@ impl Parts {
         moved.extend(a as u32..b as u32);
         for k in moved {
             if let Some((_, q)) = self.nearest_other(self.samples[k as usize], i) {
-                self.carried[q as usize].push(k);
+                // A part that stays (the main one, or passed over) never
+                // needs its error again.
+                if !self.done[q as usize] {
+                    self.carried[q as usize].push(k);
+                }
             }
         }
         out.components_removed += 1;
@@ -237,13 +260,14 @@ impl Parts {
     pub(super) fn remove_below(
         &mut self,
         surface: &mut Surface,
+        version: &mut [u32],
         error: f64,
         stop: &StopRule,
         out: &mut Outcome,
     ) -> bool {
         let mut any = false;
         while let Some((i, e)) = self.cheapest(error) {
-            self.remove(surface, i, e, stop, out);
+            self.remove(surface, version, i, e, stop, out);
             any = true;
         }
         any
@@ -256,6 +280,7 @@ impl Parts {
     pub(super) fn remove_to_target(
         &mut self,
         surface: &mut Surface,
+        version: &mut [u32],
         stop: &StopRule,
         out: &mut Outcome,
     ) -> bool {
@@ -272,7 +297,7 @@ impl Parts {
             let Some((i, e)) = self.cheapest(f64::INFINITY) else {
                 break;
             };
-            any |= self.remove(surface, i, e, stop, out);
+            any |= self.remove(surface, version, i, e, stop, out);
         }
         any
     }
@@ -338,9 +363,32 @@ fn sample_parts(
                 centroid,
             ]);
         }
+        // A point shared by several sampled triangles once (the largest
+        // distance is the same).
+        let part = &mut samples[s..];
+        part.sort_unstable_by(|a, b| {
+            a[0].total_cmp(&b[0])
+                .then(a[1].total_cmp(&b[1]))
+                .then(a[2].total_cmp(&b[2]))
+        });
+        let kept = dedup_len(part);
+        samples.truncate(s + kept);
         ranges.push((s, samples.len()));
     }
     (samples, ranges, PartIndex::new(bvhs))
+}
+
+/// Moves the distinct points of the sorted `points` to its front; returns how
+/// many there are.
+fn dedup_len(points: &mut [[f64; 3]]) -> usize {
+    let mut w = 0;
+    for r in 0..points.len() {
+        if w == 0 || points[r] != points[w - 1] {
+            points[w] = points[r];
+            w += 1;
+        }
+    }
+    w
 }
 
 /// Closest points on the parts' surfaces, leaving some parts out: a tree of

@@ -188,3 +188,32 @@ proptest! {
         check_invariants(&m, &out, &report);
     }
 }
+
+/// Two tetrahedra sharing one corner P (a pinch): sliding P onto a corner a of
+/// one of them would turn its triangle (P, b, c) into (a, b, c), which exists:
+/// refused, with either cost model, down to any target.
+/// ```text
+///   b   c        the first tetrahedron: P, a, b, c; the second: P, d, e, f
+///    \ /
+///  a--P--d
+///    / \
+///   e   f
+/// ```
+#[test]
+fn a_sliding_pinch_never_makes_a_triangle_twice() {
+    let mut m = generate::tetrahedron();
+    let mut other = generate::tetrahedron();
+    for p in &mut other.positions {
+        for x in p.iter_mut() {
+            *x = -*x;
+        }
+    }
+    m.append(&other, 0);
+    for method in [Method::Qem, Method::Melax] {
+        for target in [0, 4, 6] {
+            let o = free().with_method(method).with_target_triangles(target);
+            let (out, report) = simplify(&m, &o).unwrap();
+            check_invariants(&m, &out, &report);
+        }
+    }
+}

@@ -510,8 +510,14 @@ impl PartIndex {
     fn nearest(&self, x: [f64; 3], skip: impl Fn(u32) -> bool) -> Option<(f64, u32)> {
         let mut best: Option<(f64, u32)> = None;
         let bound = |b: &Option<(f64, u32)>| b.map_or(f64::INFINITY, |b| b.0);
-        let mut stack = vec![0usize];
-        while let Some(ni) = stack.pop() {
+        // A depth-first walk holds at most one pending sibling per level: the
+        // tree's depth (≤ 64 for any count of parts) bounds the stack, so it
+        // lives on the call stack (no allocation per query).
+        let mut stack = [0usize; 2 * 64];
+        let mut len = 1;
+        while len > 0 {
+            len -= 1;
+            let ni = stack[len];
             let nd = &self.nodes[ni];
             if box_dist2(x, &nd.lo, &nd.hi) >= bound(&best) {
                 continue;
@@ -533,11 +539,10 @@ impl PartIndex {
                 let (l, r) = (nd.first, nd.first + 1);
                 let dl = box_dist2(x, &self.nodes[l].lo, &self.nodes[l].hi);
                 let dr = box_dist2(x, &self.nodes[r].lo, &self.nodes[r].hi);
-                if dl <= dr {
-                    stack.extend([r, l]);
-                } else {
-                    stack.extend([l, r]);
-                }
+                let (first, second) = if dl <= dr { (r, l) } else { (l, r) };
+                stack[len] = first;
+                stack[len + 1] = second;
+                len += 2;
             }
         }
         best

@@ -627,6 +627,12 @@ proptest! {
             .with_fit_iterations(2);
         let (out, report) = simplify(&m, &o).unwrap();
         check_invariants(&m, &out, &report);
+        // Free topology (holes close, parts go, pinches slide): the same.
+        let o = SimplifyOptions::default()
+            .with_ratio(ratio)
+            .with_preserve_topology(false);
+        let (out, report) = simplify(&m, &o).unwrap();
+        check_invariants(&m, &out, &report);
         let opts = SimplifyOptions::default()
             .with_ratio(ratio)
             .with_preserve_topology(false)

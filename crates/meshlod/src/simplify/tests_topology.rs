@@ -170,23 +170,6 @@ proptest! {
         check_invariants(&m, &out, &report);
     }
 
-    /// Random triangle soups (any index, repeats, degenerate and duplicate
-    /// triangles, many parts and pinches), free topology: never a panic, every
-    /// invariant holds.
-    #[test]
-    fn random_soups_keep_invariants_with_free_topology(
-        pos in prop::collection::vec((-1.0f32..1.0, -1.0f32..1.0, -1.0f32..1.0), 3..40),
-        idx in prop::collection::vec((0u32..40, 0u32..40, 0u32..40), 0..80),
-        ratio in 0.0f64..1.0,
-    ) {
-        let n = pos.len() as u32;
-        let m = Mesh::from_triangles(
-            pos.iter().map(|&(x, y, z)| [x, y, z]).collect(),
-            idx.iter().map(|&(a, b, c)| [a % n, b % n, c % n]).collect(),
-        );
-        let (out, report) = simplify(&m, &free().with_ratio(ratio)).unwrap();
-        check_invariants(&m, &out, &report);
-    }
 }
 
 /// Two tetrahedra sharing one corner P (a pinch): sliding P onto a corner a of

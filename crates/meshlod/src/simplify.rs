@@ -831,7 +831,7 @@ pub fn simplify_observed(
         && options.method == Method::Qem
         && options.placement != Placement::Endpoint;
     let target = options.target_for(mesh.triangles.len());
-    let d = decimate_mesh(mesh, options, target, fit_possible, observer);
+    let d = decimate_mesh(mesh, options, target, None, fit_possible, observer);
     let passes = Passes {
         facing: options.facing_repair
             && d.outcome.collapses > 0
@@ -956,6 +956,7 @@ fn decimate_mesh(
     mesh: &Mesh,
     options: &SimplifyOptions,
     target: usize,
+    max_cost: Option<f64>,
     track_merges: bool,
     observer: &mut dyn Observer,
 ) -> Decimated {
@@ -980,6 +981,7 @@ fn decimate_mesh(
     let stop = StopRule {
         target_triangles: target,
         max_error: options.max_error.map(|e| e.resolve(diag)),
+        max_cost,
     };
     let mut models = Models::new(options);
     let (outcome, triangles) = decimate(&mut surface, options, stop, &mut models, observer);
@@ -1233,17 +1235,36 @@ fn refine_with(
     };
     let (fitted, known) = fitted;
     let facing = match tree {
-        Some(tree) if facing_on => Some(facing::repair(
-            mesh,
-            tree,
-            out,
-            diag,
-            Some(vertex_source),
-            Some(&known),
-        )),
+        Some(tree) if facing_on => {
+            let mut repair =
+                || facing::repair(mesh, tree, out, diag, Some(vertex_source), Some(&known));
+            // On `threads` threads (rayon's global pool, all cores, when `None` or
+            // when a pool cannot be started).
+            Some(match thread_pool(options.threads) {
+                Ok(Some(pool)) => pool.install(repair),
+                _ => repair(),
+            })
+        }
         _ => None,
     };
     (fitted, facing)
+}
+
+/// The thread pool of `threads` threads (`None`: rayon's global pool, all cores).
+pub(super) fn thread_pool(
+    threads: Option<usize>,
+) -> Result<Option<rayon::ThreadPool>, SimplifyError> {
+    threads
+        .map(|t| {
+            rayon::ThreadPoolBuilder::new()
+                .num_threads(t)
+                .build()
+                .map_err(|e| SimplifyError::Option {
+                    name: "threads",
+                    message: format!("cannot start {t} threads: {e}"),
+                })
+        })
+        .transpose()
 }
 
 /// Output vertices (`n` of them) at a locked input vertex's point: the one

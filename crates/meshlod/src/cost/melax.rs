@@ -532,6 +532,7 @@ mod tests {
                 stop: StopRule {
                     target_triangles: 60,
                     max_error: None,
+                    max_cost: None,
                 },
                 ..EdgeCollapseOptions::default()
             };

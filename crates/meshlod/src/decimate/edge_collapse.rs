@@ -828,6 +828,18 @@ fn run_impl<C: CostModel + ?Sized>(
             }
             break;
         };
+        if stop.max_cost.is_some_and(|mc| {
+            e.cost_bits >= FLAT_BITS && f64::from(f32::from_bits(e.cost_bits)) > mc * d.key_scale
+        }) {
+            // The heap pops in cost order: every pair left costs at least this
+            // (flat pairs' keys sit below every other key).
+            out.stop_reason = StopReason::MaxError;
+            out.stop_detail = format!(
+                "every remaining collapse costs more than the bound ({:.6e})",
+                stop.max_cost.unwrap_or(0.0)
+            );
+            break;
+        }
         // Loading the next pop's neighbourhood is a chain of dependent cache misses
         // (point records, fans, triangles, positions) that would stall the loop at
         // every pop on a mesh larger than the cache. The next pop is most likely

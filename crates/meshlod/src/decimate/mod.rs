@@ -27,6 +27,11 @@ pub struct StopRule {
     pub target_triangles: usize,
     /// Never perform a collapse whose error (a distance in mesh units) exceeds this.
     pub max_error: Option<f64>,
+    /// Stop once the cheapest queued collapse costs more than this (the cost
+    /// model's priority; QEM: a squared distance times an area, mesh units⁴): the
+    /// run then holds exactly the collapses that a longer run does first. Used to
+    /// stop pieces of a mesh at the same point of the whole mesh's greedy order.
+    pub max_cost: Option<f64>,
 }
 
 /// Why a run stopped.

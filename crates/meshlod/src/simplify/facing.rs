@@ -44,6 +44,7 @@ use crate::filter::triangle_quality;
 use crate::mesh::{Mesh, Weld};
 use crate::metrics::bvh::{Bvh, Closest};
 use crate::metrics::triangle::{closest_point, cross, dist2, dot, sub, V3};
+use rayon::prelude::*;
 
 /// What the repair did.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
@@ -188,6 +189,9 @@ impl Repair<'_> {
     }
 }
 
+/// Output triangles per parallel task of the repair's first scan.
+const SCAN_RUN: usize = 4096;
+
 /// Runs the repair on `out` (the simplified mesh) against `input` (the mesh it was
 /// simplified from; `input_tree` is a closest-point tree over it, e.g.
 /// [`Bvh::build_morton`]); `diag` is the input's bounding-box diagonal; `source[v]`,
@@ -217,17 +221,29 @@ pub(crate) fn repair(
     let corners_of =
         |out: &Mesh, t: usize| out.triangles[t].map(|v| f64v(out.positions[v as usize]));
     let start = |out: &Mesh, t: usize| start_at(&r.tri_at, source, &out.triangles[t]);
-    let mut away = Vec::new();
-    let mut g = 0.0f64;
-    for t in 0..out.triangles.len() {
-        let mut hint = start(out, t);
-        let k = known.and_then(|k| k.get(t)).and_then(Option::as_ref);
-        let (a, d) = r.facing_known(&corners_of(out, t), &mut hint, k);
-        g = g.max(d);
-        if a {
-            away.push(t as u32);
-        }
-    }
+    // Each triangle's query is independent: runs of triangles in parallel (on
+    // the caller's rayon pool), their facing-away lists joined in order.
+    let shared: &Mesh = out;
+    let scanned: Vec<(Vec<u32>, f64)> = (0..shared.triangles.len())
+        .into_par_iter()
+        .step_by(SCAN_RUN)
+        .map(|first| {
+            let mut away = Vec::new();
+            let mut g = 0.0f64;
+            for t in first..(first + SCAN_RUN).min(shared.triangles.len()) {
+                let mut hint = start(shared, t);
+                let k = known.and_then(|k| k.get(t)).and_then(Option::as_ref);
+                let (a, d) = r.facing_known(&corners_of(shared, t), &mut hint, k);
+                g = g.max(d);
+                if a {
+                    away.push(t as u32);
+                }
+            }
+            (away, g)
+        })
+        .collect();
+    let g = scanned.iter().map(|s| s.1).fold(0.0f64, f64::max);
+    let away: Vec<u32> = scanned.into_iter().flat_map(|s| s.0).collect();
     stats.before = away.len();
     stats.after = away.len();
     if away.is_empty() {

@@ -248,6 +248,7 @@ impl Decimator<'_> {
                 StopRule {
                     target_triangles: 0,
                     max_error: Some(e),
+                    max_cost: None,
                 },
             ),
             None => Outcome::nothing(),
@@ -258,6 +259,7 @@ impl Decimator<'_> {
                 StopRule {
                     target_triangles: stop.at_most,
                     max_error: None,
+                    max_cost: None,
                 },
             );
             outcome.merge(more);

@@ -799,3 +799,42 @@ fn terraces_coarsen_without_a_storm_of_rejections() {
         report.collapses
     );
 }
+
+/// A run stopped by a cost bound holds exactly the first collapses of an
+/// unbounded run (the greedy order's prefix below the bound), and none above
+/// it; the stop says so. A bumpy 40 × 40 grid, the bound the cost of the
+/// unbounded run's 500th collapse.
+#[test]
+fn a_cost_bound_stops_at_a_prefix_of_the_greedy_order() {
+    #[derive(Default)]
+    struct Costs(Vec<(u32, u32, f64)>);
+    impl Observer for Costs {
+        fn collapsed(&mut self, r: &crate::collapse::CollapseRecord) {
+            self.0.push((r.removed, r.kept, r.cost));
+        }
+    }
+    let mesh = generate::grid(40, 40, |x, y| {
+        0.2 * (7.0 * x).sin() * (5.0 * y).cos() + 0.05 * x
+    });
+    let o = SimplifyOptions::default();
+    let mut all = Costs::default();
+    let d = decimate_mesh(&mesh, &o, 100, None, false, &mut all);
+    assert_eq!(d.outcome.stop_reason, StopReason::TargetReached);
+    let bound = all.0[500].2;
+    let mut cut = Costs::default();
+    let b = decimate_mesh(&mesh, &o, 100, Some(bound), false, &mut cut);
+    assert_eq!(
+        b.outcome.stop_reason,
+        StopReason::MaxError,
+        "{}",
+        b.outcome.stop_detail
+    );
+    assert!(cut.0.len() > 500, "{} collapses", cut.0.len());
+    assert!(cut.0.len() < all.0.len());
+    assert_eq!(
+        cut.0[..],
+        all.0[..cut.0.len()],
+        "a prefix of the unbounded run"
+    );
+    assert!(cut.0.iter().all(|c| c.2 <= bound * (1.0 + 1e-6)));
+}

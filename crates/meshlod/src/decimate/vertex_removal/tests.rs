@@ -66,6 +66,7 @@ fn tetrahedron_stays() {
             stop: StopRule {
                 target_triangles: 0,
                 max_error: None,
+                max_cost: None,
             },
             ..VertexRemovalOptions::default()
         },
@@ -140,6 +141,7 @@ fn cube_corners_kept_on_request() {
             stop: StopRule {
                 target_triangles: 0,
                 max_error: None,
+                max_cost: None,
             },
             ..VertexRemovalOptions::default()
         },
@@ -178,6 +180,7 @@ fn initial_pass_is_the_same_for_any_thread_count() {
                     stop: StopRule {
                         target_triangles: target,
                         max_error: None,
+                        max_cost: None,
                     },
                     ..VertexRemovalOptions::default()
                 },

@@ -96,9 +96,9 @@ pub struct SimplifyArgs {
     /// Never move or remove a boundary vertex (qem, melax, vertex-removal).
     #[arg(long, help_heading = heading::METHOD)]
     pub lock_boundary: bool,
-    /// Threads (default: all cores). qem on a mesh of a million triangles or more
-    /// simplifies spatial chunks in parallel, then the whole; the output is the
-    /// same for every thread count.
+    /// Threads (default: all cores). qem on a mesh of a million triangles or more,
+    /// to a quarter of it or less, simplifies spatial chunks in parallel, then
+    /// the whole; the output is the same for every thread count.
     #[arg(long, value_name = "N", help_heading = heading::METHOD)]
     pub threads: Option<usize>,
     /// qem: simplify a mesh of a million triangles or more as a whole, on one

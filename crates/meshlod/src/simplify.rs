@@ -249,12 +249,15 @@ pub struct SimplifyOptions {
     /// facet normals (see the `flat` module). A mesh with smooth normals anywhere,
     /// or with tangents, is not affected. Default `true`.
     pub reshade_flat: bool,
-    /// Threads for a large mesh's chunks: QEM on a mesh of a million triangles or
-    /// more (with optimal or midpoint placement, without `fit_iterations`,
-    /// `edge_swaps` or non-edge pairs) is simplified in spatial chunks with their
-    /// shared borders locked, then as a whole (the `chunked` module). The chunks
-    /// depend on the mesh alone, so the output is the same for every thread count.
-    /// `None` (default): all cores; `Some(n)`, `n ≥ 1`: `n` threads.
+    /// Threads for a large mesh's chunks and the orientation repair: QEM on a
+    /// mesh of a million triangles or more simplified to a quarter of it or less
+    /// (with optimal or midpoint placement, without `fit_iterations`,
+    /// `edge_swaps` or non-edge pairs, the topology kept) is simplified in spatial
+    /// chunks with their shared borders locked, then as a whole (the `chunked`
+    /// module); the orientation repair's closest-point queries run in parallel
+    /// for every mesh. The chunks depend on the mesh alone, so the output is the
+    /// same for every thread count. `None` (default): all cores; `Some(n)`,
+    /// `n ≥ 1`: `n` threads.
     pub threads: Option<usize>,
     /// Let a large mesh be simplified in chunks (see [`Self::threads`]). `false`
     /// simplifies it as a whole on one thread, in the exact global greedy order

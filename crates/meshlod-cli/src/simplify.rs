@@ -98,11 +98,13 @@ pub struct SimplifyArgs {
     pub lock_boundary: bool,
     /// Threads (default: all cores). qem on a mesh of a million triangles or more,
     /// to a quarter of it or less, simplifies spatial chunks in parallel, then
-    /// the whole; the output is the same for every thread count.
+    /// the whole; the orientation repair uses them too. The output is the same
+    /// for every thread count.
     #[arg(long, value_name = "N", help_heading = heading::METHOD)]
     pub threads: Option<usize>,
-    /// qem: simplify a mesh of a million triangles or more as a whole, on one
-    /// thread, in the exact global order, instead of in chunks (slower).
+    /// qem: simplify a mesh of a million triangles or more as a whole (the
+    /// decimation on one thread), in the exact global order, instead of in chunks
+    /// (slower).
     #[arg(long, hide = true, help_heading = heading::TUNING_QEM)]
     pub no_chunks: bool,
 

@@ -254,13 +254,14 @@ pub struct SimplifyOptions {
     /// (with optimal or midpoint placement, without `fit_iterations`,
     /// `edge_swaps` or non-edge pairs, the topology kept) is simplified in spatial
     /// chunks with their shared borders locked, then as a whole (the `chunked`
-    /// module); the orientation repair's closest-point queries run in parallel
-    /// for every mesh. The chunks depend on the mesh alone, so the output is the
+    /// module); the orientation repair's first scan (a closest-point query per
+    /// output triangle) runs in parallel for every mesh. The chunks depend on the mesh alone, so the output is the
     /// same for every thread count. `None` (default): all cores; `Some(n)`,
     /// `n ≥ 1`: `n` threads.
     pub threads: Option<usize>,
     /// Let a large mesh be simplified in chunks (see [`Self::threads`]). `false`
-    /// simplifies it as a whole on one thread, in the exact global greedy order
+    /// simplifies it as a whole (the decimation on one thread), in the exact
+    /// global greedy order
     /// (slower; the reference the chunked runs are measured against). Default
     /// `true`.
     pub chunks: bool,
@@ -952,6 +953,17 @@ struct Decimated {
 /// [`Report::non_manifold_points_in`] and [`Report::non_manifold_kept`].
 pub(crate) type Census = (usize, Option<crate::collapse::NonManifoldPoints>);
 
+/// A piece of a larger mesh ([`chunked`]): its costs are scaled by the whole
+/// mesh's bounding-box diagonal, so that one cost bound means the same in every
+/// piece, and its run stops above `max_cost` ([`StopRule::max_cost`]).
+#[derive(Debug, Clone, Copy)]
+struct Piece {
+    /// The whole mesh's bounding-box diagonal (mesh units).
+    diagonal: f64,
+    /// The cost bound, if any.
+    max_cost: Option<f64>,
+}
+
 /// Builds the surface of `mesh`, decimates it toward `target` triangles with the
 /// method of `options` and writes the output mesh (tracking, when `track_merges`,
 /// which output vertex each input vertex was merged into, for the fitting).
@@ -959,7 +971,7 @@ fn decimate_mesh(
     mesh: &Mesh,
     options: &SimplifyOptions,
     target: usize,
-    max_cost: Option<f64>,
+    piece: Option<Piece>,
     track_merges: bool,
     observer: &mut dyn Observer,
 ) -> Decimated {
@@ -978,13 +990,16 @@ fn decimate_mesh(
             permissive: options.permissive && options.method == Method::Qem,
         },
     );
+    if let Some(p) = &piece {
+        surface.set_diagonal(p.diagonal);
+    }
     let diag = surface.diagonal();
     let nm_in = surface.non_manifold_census().total;
     let t_decimate = Instant::now();
     let stop = StopRule {
         target_triangles: target,
         max_error: options.max_error.map(|e| e.resolve(diag)),
-        max_cost,
+        max_cost: piece.and_then(|p| p.max_cost),
     };
     let mut models = Models::new(options);
     let (outcome, triangles) = decimate(&mut surface, options, stop, &mut models, observer);
@@ -1239,11 +1254,16 @@ fn refine_with(
     let (fitted, known) = fitted;
     let facing = match tree {
         Some(tree) if facing_on => {
-            let mut repair =
-                || facing::repair(mesh, tree, out, diag, Some(vertex_source), Some(&known));
             // On `threads` threads (rayon's global pool, all cores, when `None` or
-            // when a pool cannot be started).
-            Some(match thread_pool(options.threads) {
+            // when a pool cannot be started); on this one, with no pool to start,
+            // for one thread or one run of the scan (the cluster hierarchy
+            // simplifies thousands of groups, each on one thread).
+            let parallel = options.threads != Some(1) && out.triangles.len() > facing::SCAN_RUN;
+            let mut repair = || {
+                let known = Some(&known);
+                facing::repair(mesh, tree, out, diag, Some(vertex_source), known, parallel)
+            };
+            Some(match thread_pool(options.threads.filter(|_| parallel)) {
                 Ok(Some(pool)) => pool.install(repair),
                 _ => repair(),
             })

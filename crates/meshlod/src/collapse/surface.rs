@@ -776,10 +776,20 @@ impl Surface {
         self.center
     }
 
-    /// Bounding-box diagonal of the input.
+    /// Bounding-box diagonal of the input (or the one given to
+    /// [`Self::set_diagonal`]): the length the cost models and the queue's keys
+    /// scale by.
     #[must_use]
     pub fn diagonal(&self) -> f64 {
         self.diag
+    }
+
+    /// Makes [`Self::diagonal`] `diag`: a piece of a larger mesh takes the whole
+    /// mesh's, so that its costs (attribute weights, queue keys) are the whole's.
+    /// (The degenerate-triangle bound stays the piece's own: it follows the
+    /// precision of its coordinates.)
+    pub fn set_diagonal(&mut self, diag: f64) {
+        self.diag = diag;
     }
 
     /// Calls `f(a, b, t, kind)` for every border edge (`kind = Border`), every

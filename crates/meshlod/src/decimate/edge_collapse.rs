@@ -816,6 +816,18 @@ fn run_impl<C: CostModel + ?Sized>(
     let mut preview = Preview::default();
     let mut scan = ScanCounts::default();
     let mut parked = Parked::new();
+    // The cost bound as a key, rounded as keys are (a collapse costing exactly the
+    // bound goes ahead).
+    let bound = stop.max_cost.map(|mc| {
+        let key = Item {
+            a: 0,
+            b: 0,
+            stamp: 0,
+            cost_bits: 0,
+        }
+        .with_cost(mc * d.key_scale);
+        (mc, key.cost_bits)
+    });
     loop {
         if d.surface.live_triangles() <= stop.target_triangles {
             out.stop_reason = StopReason::TargetReached;
@@ -828,17 +840,16 @@ fn run_impl<C: CostModel + ?Sized>(
             }
             break;
         };
-        if stop.max_cost.is_some_and(|mc| {
-            e.cost_bits >= FLAT_BITS && f64::from(f32::from_bits(e.cost_bits)) > mc * d.key_scale
-        }) {
-            // The heap pops in cost order: every pair left costs at least this
-            // (flat pairs' keys sit below every other key).
-            out.stop_reason = StopReason::MaxError;
-            out.stop_detail = format!(
-                "every remaining collapse costs more than the bound ({:.6e})",
-                stop.max_cost.unwrap_or(0.0)
-            );
-            break;
+        if let Some((mc, bits)) = bound {
+            if e.cost_bits >= FLAT_BITS && e.cost_bits > bits {
+                // The heap pops in cost order: every queued pair costs at least
+                // this (flat pairs' keys sit below every other key). Pairs parked
+                // after a rejection are not retried.
+                out.stop_reason = StopReason::MaxError;
+                out.stop_detail =
+                    format!("every remaining collapse costs more than the bound ({mc:.6e})");
+                break;
+            }
         }
         // Loading the next pop's neighbourhood is a chain of dependent cache misses
         // (point records, fans, triangles, positions) that would stall the loop at

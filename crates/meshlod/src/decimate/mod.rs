@@ -40,7 +40,8 @@ pub struct StopRule {
 pub enum StopReason {
     /// The triangle count reached the target.
     TargetReached,
-    /// Every remaining collapse would exceed the maximum error.
+    /// Every remaining collapse would exceed the maximum error (or the cost
+    /// bound, [`StopRule::max_cost`]).
     MaxError,
     /// No collapse is legal any more (topology, kinds, fold-overs, filters).
     NoLegalCollapse,

@@ -11,11 +11,13 @@
 //!    vertices they use with their attributes, its groups), simplified by the same
 //!    QEM decimation as a whole mesh, with its border points locked (as well as
 //!    the caller's locked vertices), until its cheapest collapse costs more than
-//!    a bound common to all chunks (and never below the final ratio). The bound
-//!    is where a few sampled chunks, run to the final ratio first, kept
-//!    [`chunk_keep`] of their triangles: every chunk then holds the collapses the
-//!    whole mesh's greedy order performs first, so a rough chunk keeps more than
-//!    a flat one. (A bound on the collapses' *error* instead does not stop a
+//!    a bound common to all chunks (every chunk's costs scaled by the whole
+//!    mesh's diagonal), and never below the final ratio. The bound is where a
+//!    few sampled chunks, run to the final ratio first, kept [`chunk_keep`] (at
+//!    least [`border_keep`]) of their triangles; without one (the samples
+//!    stopped above it) the chunks stop at that fraction. Every chunk then
+//!    holds the collapses the whole mesh's greedy order performs first, so a
+//!    rough chunk keeps more than a flat one. (A bound on the collapses' *error* instead does not stop a
 //!    chunk there: the queue is ordered by cost, a squared distance times an
 //!    area, and errors below the bound keep coming long after the first one
 //!    above it.) The chunks are independent: no chunk sees another's state.
@@ -31,11 +33,12 @@
 //! The global pass starts from quadrics of the merged mesh, not the input's: the
 //! error of step 2 is not carried into its costs, and the reported error is the
 //! chunks' largest plus the global pass's (a bound on their sum). The global pass
-//! still makes the coarse decisions (at 1% the chunks keep 8% of the mesh).
+//! still makes the coarse decisions (at 1% the chunks keep 8% of the mesh or
+//! more, [`chunk_keep`] and [`border_keep`]).
 
 use super::{
-    decimate_mesh, refine, thread_pool, Decimated, Method, Passes, Phases, Placement, Report,
-    Simplified, SimplifyError, SimplifyOptions,
+    decimate_mesh, refine, thread_pool, Decimated, Method, Passes, Phases, Piece, Placement,
+    Report, Simplified, SimplifyError, SimplifyOptions,
 };
 use crate::decimate::{NoObserver, Observer, Outcome, StopReason};
 use crate::mesh::partition::{partition, Partition};
@@ -96,6 +99,8 @@ pub(super) fn chunking(mesh: &Mesh, options: &SimplifyOptions) -> Option<usize> 
         && options.method == Method::Qem
         && options.placement != Placement::Endpoint
         && options.fit_iterations == 0
+        // The area weighting's normaliser is each surface's own mean area.
+        && options.area_exponent == 1.0
         && !options.edge_swaps
         && options.preserve_topology
         && mesh.triangles.len() >= CHUNKED_FROM;
@@ -148,10 +153,17 @@ pub(super) fn simplify_chunked(
     // ratio, kept `chunk_keep` of their triangles (and never below the final
     // ratio): a rough chunk keeps more triangles than a flat one, as in the
     // global order.
-    let sample = sample_curves(mesh, &part, &inner, ratio, pool.as_ref());
+    let sample = sample_curves(mesh, &part, &inner, ratio, diag, pool.as_ref());
     let keep = chunk_keep(ratio).max(border_keep(&part, n));
     let bound = cost_for_count(&sample, keep);
-    let results = run_chunks(mesh, &part, &inner, ratio, bound, pool.as_ref(), observer);
+    // Without a bound (the samples stopped above `keep`) the chunks stop at
+    // `keep` themselves.
+    let piece = Piece {
+        diagonal: diag,
+        max_cost: bound,
+    };
+    let floor = if bound.is_some() { ratio } else { keep };
+    let results = run_chunks(mesh, &part, &inner, floor, piece, pool.as_ref(), observer);
     release_free_memory();
     let t_merge = Instant::now();
     let (merged, source) = merge(mesh, &part, &results);
@@ -227,7 +239,7 @@ fn par_map<T: Sync, R: Send>(
 }
 
 /// Every `SAMPLE_STRIDE`-th chunk is run to the final ratio first, to learn
-/// which error the chunks should stop at.
+/// which cost the chunks should stop at.
 const SAMPLE_STRIDE: usize = 8;
 
 /// A sampled chunk's run: its size and, per collapse in order, the triangles it
@@ -255,12 +267,17 @@ fn sample_curves(
     part: &Partition,
     options: &SimplifyOptions,
     ratio: f64,
+    diagonal: f64,
     pool: Option<&rayon::ThreadPool>,
 ) -> Vec<Curve> {
     let picked: Vec<&Vec<u32>> = part.chunks.iter().step_by(SAMPLE_STRIDE).collect();
     par_map(pool, &picked, |tris| {
         let mut rec = Recorder::default();
-        simplify_chunk(mesh, part, tris, options, ratio, None, &mut rec);
+        let piece = Piece {
+            diagonal,
+            max_cost: None,
+        };
+        simplify_chunk(mesh, part, tris, options, ratio, piece, &mut rec);
         Curve {
             triangles: tris.len(),
             steps: rec.0,
@@ -309,7 +326,7 @@ fn run_chunks(
     part: &Partition,
     options: &SimplifyOptions,
     ratio: f64,
-    max_cost: Option<f64>,
+    piece: Piece,
     pool: Option<&rayon::ThreadPool>,
     observer: &mut dyn Observer,
 ) -> Vec<ChunkResult> {
@@ -321,7 +338,7 @@ fn run_chunks(
     let mut removed = 0usize;
     for wave in part.chunks.chunks(4 * width.max(1)) {
         let done = par_map(pool, wave, |tris| {
-            simplify_chunk(mesh, part, tris, options, ratio, max_cost, &mut NoObserver)
+            simplify_chunk(mesh, part, tris, options, ratio, piece, &mut NoObserver)
         });
         for (tris, r) in wave.iter().zip(&done) {
             removed += tris.len().saturating_sub(r.out.triangles.len());
@@ -333,15 +350,16 @@ fn run_chunks(
 }
 
 /// The mesh of one chunk (`tris` of `mesh`), simplified to `chunk_ratio` of its
-/// triangles, or until its cheapest collapse costs more than `max_cost`, with its
-/// border vertices (and the caller's locked ones) locked.
+/// triangles, or until its cheapest collapse costs more than the piece's bound
+/// (costs scaled by the whole mesh's diagonal), with its border vertices (and
+/// the caller's locked ones) locked.
 fn simplify_chunk(
     mesh: &Mesh,
     part: &Partition,
     tris: &[u32],
     options: &SimplifyOptions,
     chunk_ratio: f64,
-    max_cost: Option<f64>,
+    piece: Piece,
     observer: &mut dyn Observer,
 ) -> ChunkResult {
     let (sub, verts) = extract(mesh, tris);
@@ -353,7 +371,7 @@ fn simplify_chunk(
     let mut o = options.clone();
     o.locked_vertices = Some(locked);
     let target = (tris.len() as f64 * chunk_ratio).ceil() as usize;
-    let d = decimate_mesh(&sub, &o, target, max_cost, false, observer);
+    let d = decimate_mesh(&sub, &o, target, Some(piece), false, observer);
     ChunkResult {
         source: d.vertex_source.iter().map(|&v| verts[v as usize]).collect(),
         out: d.out,

@@ -190,14 +190,15 @@ impl Repair<'_> {
 }
 
 /// Output triangles per parallel task of the repair's first scan.
-const SCAN_RUN: usize = 4096;
+pub(super) const SCAN_RUN: usize = 4096;
 
 /// Runs the repair on `out` (the simplified mesh) against `input` (the mesh it was
 /// simplified from; `input_tree` is a closest-point tree over it, e.g.
 /// [`Bvh::build_morton`]); `diag` is the input's bounding-box diagonal; `source[v]`,
 /// when given, is the input vertex output vertex `v` descends from, and `known` the
 /// nearest input points some triangles' centroids already have ([`KnownNearest`]);
-/// both only save closest-point queries.
+/// both only save closest-point queries. `parallel`: the first scan runs on the
+/// current rayon pool (the result is the same).
 pub(crate) fn repair(
     input: &Mesh,
     input_tree: &Bvh,
@@ -205,6 +206,7 @@ pub(crate) fn repair(
     diag: f64,
     source: Option<&[u32]>,
     known: Option<&KnownNearest>,
+    parallel: bool,
 ) -> FacingRepair {
     let mut stats = FacingRepair::default();
     if out.triangles.is_empty() || input.triangles.is_empty() || diag.is_nan() || diag <= 0.0 {
@@ -222,26 +224,33 @@ pub(crate) fn repair(
         |out: &Mesh, t: usize| out.triangles[t].map(|v| f64v(out.positions[v as usize]));
     let start = |out: &Mesh, t: usize| start_at(&r.tri_at, source, &out.triangles[t]);
     // Each triangle's query is independent: runs of triangles in parallel (on
-    // the caller's rayon pool), their facing-away lists joined in order.
+    // the caller's rayon pool) when `parallel`, their facing-away lists joined in
+    // order.
     let shared: &Mesh = out;
-    let scanned: Vec<(Vec<u32>, f64)> = (0..shared.triangles.len())
-        .into_par_iter()
-        .step_by(SCAN_RUN)
-        .map(|first| {
-            let mut away = Vec::new();
-            let mut g = 0.0f64;
-            for t in first..(first + SCAN_RUN).min(shared.triangles.len()) {
-                let mut hint = start(shared, t);
-                let k = known.and_then(|k| k.get(t)).and_then(Option::as_ref);
-                let (a, d) = r.facing_known(&corners_of(shared, t), &mut hint, k);
-                g = g.max(d);
-                if a {
-                    away.push(t as u32);
-                }
+    let scan_run = |first: usize| {
+        let mut away = Vec::new();
+        let mut g = 0.0f64;
+        for t in first..(first + SCAN_RUN).min(shared.triangles.len()) {
+            let mut hint = start(shared, t);
+            let k = known.and_then(|k| k.get(t)).and_then(Option::as_ref);
+            let (a, d) = r.facing_known(&corners_of(shared, t), &mut hint, k);
+            g = g.max(d);
+            if a {
+                away.push(t as u32);
             }
-            (away, g)
-        })
-        .collect();
+        }
+        (away, g)
+    };
+    let firsts = (0..shared.triangles.len()).step_by(SCAN_RUN);
+    let scanned: Vec<(Vec<u32>, f64)> = if parallel {
+        firsts
+            .collect::<Vec<_>>()
+            .into_par_iter()
+            .map(scan_run)
+            .collect()
+    } else {
+        firsts.map(scan_run).collect()
+    };
     let g = scanned.iter().map(|s| s.1).fold(0.0f64, f64::max);
     let away: Vec<u32> = scanned.into_iter().flat_map(|s| s.0).collect();
     stats.before = away.len();
@@ -551,7 +560,7 @@ mod tests {
     /// The repair with a tree over `input`.
     fn run(input: &Mesh, out: &mut Mesh, diag: f64) -> FacingRepair {
         let tree = Bvh::build_morton(&input.positions, &input.triangles);
-        repair(input, &tree, out, diag, None, None)
+        repair(input, &tree, out, diag, None, None, true)
     }
 
     #[test]
@@ -597,13 +606,24 @@ mod tests {
             .collect();
         let plain = {
             let mut out = folded(false);
-            (repair(&input, &tree, &mut out, diagonal(), None, None), out)
+            (
+                repair(&input, &tree, &mut out, diagonal(), None, None, true),
+                out,
+            )
         };
         assert_eq!(plain.0.before, 1);
         let with = |known: &KnownNearest| {
             let mut out = folded(false);
             (
-                repair(&input, &tree, &mut out, diagonal(), None, Some(known)),
+                repair(
+                    &input,
+                    &tree,
+                    &mut out,
+                    diagonal(),
+                    None,
+                    Some(known),
+                    false,
+                ),
                 out,
             )
         };

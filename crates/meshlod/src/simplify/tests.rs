@@ -822,7 +822,11 @@ fn a_cost_bound_stops_at_a_prefix_of_the_greedy_order() {
     assert_eq!(d.outcome.stop_reason, StopReason::TargetReached);
     let bound = all.0[500].2;
     let mut cut = Costs::default();
-    let b = decimate_mesh(&mesh, &o, 100, Some(bound), false, &mut cut);
+    let piece = Piece {
+        diagonal: mesh.bbox_diagonal(),
+        max_cost: Some(bound),
+    };
+    let b = decimate_mesh(&mesh, &o, 100, Some(piece), false, &mut cut);
     assert_eq!(
         b.outcome.stop_reason,
         StopReason::MaxError,

@@ -17,10 +17,11 @@
 //!    least [`border_keep`]) of their triangles; without one (the samples
 //!    stopped above it) the chunks stop at that fraction. Every chunk then
 //!    holds the collapses the whole mesh's greedy order performs first, so a
-//!    rough chunk keeps more than a flat one. (A bound on the collapses' *error* instead does not stop a
-//!    chunk there: the queue is ordered by cost, a squared distance times an
-//!    area, and errors below the bound keep coming long after the first one
-//!    above it.) The chunks are independent: no chunk sees another's state.
+//!    rough chunk keeps more than a flat one. (A bound on the collapses'
+//!    *error* instead does not stop a chunk there: the queue is ordered by cost,
+//!    a squared distance times an area, and errors below the bound keep coming
+//!    long after the first one above it.) The chunks are independent: no chunk
+//!    sees another's state.
 //! 3. **Merge.** The chunks' outputs are concatenated; a border vertex, present in
 //!    every chunk that uses it and never moved, becomes one vertex again (by its
 //!    input vertex).
@@ -81,9 +82,9 @@ fn border_keep(part: &Partition, n: usize) -> f64 {
     (BORDER_KEEP * part.border_vertices() as f64 / n.max(1) as f64).min(0.5)
 }
 
-/// See [`border_keep`]: on the 1M-triangle terrain at 1% chunks keeping 2× the
-/// border share came out 15× farther from the input on average, 2.6× it 1.24×,
-/// 4× and more as close as the whole mesh.
+/// See [`border_keep`]: on the 1M-triangle terrain at 1%, chunks keeping 2× the
+/// border share came out 15× farther from the input on average than the whole
+/// mesh, chunks keeping 2.6× it 1.24× farther, 4× and more as close.
 const BORDER_KEEP: f64 = 4.0;
 
 /// The chunk size when `options` on `mesh` go through the chunked path: QEM with

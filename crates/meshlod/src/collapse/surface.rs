@@ -677,13 +677,7 @@ impl Surface {
     /// shared points) and of live points on a border. O(points + triangles).
     #[must_use]
     pub fn components_and_border_points(&self) -> (usize, usize) {
-        let mut uf = crate::mesh::topology::UnionFind::new(self.pos.len());
-        for t in &self.tri {
-            if t[0] != DEAD {
-                uf.union(t[0], t[1]);
-                uf.union(t[0], t[2]);
-            }
-        }
+        let mut uf = self.point_components();
         let (mut components, mut border) = (0, 0);
         for p in 0..self.pos.len() as u32 {
             if self.is_alive(p) {
@@ -692,6 +686,19 @@ impl Surface {
             }
         }
         (components, border)
+    }
+
+    /// The points joined by the live triangles: `find(p)` is the same for every
+    /// point of one connected component (dead points stay alone).
+    pub(crate) fn point_components(&self) -> crate::mesh::topology::UnionFind {
+        let mut uf = crate::mesh::topology::UnionFind::new(self.pos.len());
+        for t in &self.tri {
+            if t[0] != DEAD {
+                uf.union(t[0], t[1]);
+                uf.union(t[0], t[2]);
+            }
+        }
+        uf
     }
 
     /// Whether `p` is a point inside a non-manifold chain that may slide along it

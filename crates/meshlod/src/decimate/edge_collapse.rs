@@ -818,16 +818,9 @@ fn run_impl<C: CostModel + ?Sized>(
     let mut parked = Parked::new();
     // The cost bound as a key, rounded as keys are (a collapse costing exactly the
     // bound goes ahead).
-    let bound = stop.max_cost.map(|mc| {
-        let key = Item {
-            a: 0,
-            b: 0,
-            stamp: 0,
-            cost_bits: 0,
-        }
-        .with_cost(mc * d.key_scale);
-        (mc, key.cost_bits)
-    });
+    let bound = stop
+        .max_cost
+        .map(|mc| (mc, Item::default().with_cost(mc * d.key_scale).cost_bits));
     loop {
         if d.surface.live_triangles() <= stop.target_triangles {
             out.stop_reason = StopReason::TargetReached;

@@ -20,7 +20,7 @@
 
 use super::{Outcome, StopRule};
 use crate::collapse::{Surface, DEAD};
-use crate::metrics::bvh::Bvh;
+use crate::metrics::bvh::{box_gap2, Bvh};
 use std::cmp::Reverse;
 use std::collections::BinaryHeap;
 
@@ -60,14 +60,7 @@ impl Parts {
     /// O(n log n).
     pub(super) fn new(surface: &Surface) -> Option<Self> {
         let np = surface.point_count();
-        let mut uf = crate::mesh::topology::UnionFind::new(np);
-        for t in 0..surface.triangle_slots() as u32 {
-            let tt = surface.triangle(t);
-            if tt[0] != DEAD {
-                uf.union(tt[0], tt[1]);
-                uf.union(tt[0], tt[2]);
-            }
-        }
+        let mut uf = surface.point_components();
         let mut keyed: Vec<(u32, u32)> = (0..np as u32)
             .filter(|&p| surface.is_alive(p))
             .map(|p| (uf.find(p), p))
@@ -421,15 +414,6 @@ struct BoxNode {
 const PARTS_PER_LEAF: usize = 4;
 
 /// Squared distance from `x` to the box `[lo, hi]` (0 inside).
-fn box_dist2(x: [f64; 3], lo: &[f64; 3], hi: &[f64; 3]) -> f64 {
-    (0..3)
-        .map(|k| {
-            let e = (lo[k] - x[k]).max(0.0) + (x[k] - hi[k]).max(0.0);
-            e * e
-        })
-        .sum()
-}
-
 impl PartIndex {
     /// The index of parts whose triangles are in `bvhs` (an empty part gets an
     /// empty box and is never found). O(n log n) in the parts.
@@ -519,13 +503,13 @@ impl PartIndex {
             len -= 1;
             let ni = stack[len];
             let nd = &self.nodes[ni];
-            if box_dist2(x, &nd.lo, &nd.hi) >= bound(&best) {
+            if box_gap2(x, &nd.lo, &nd.hi) >= bound(&best) {
                 continue;
             }
             if nd.count > 0 {
                 for &q in &self.order[nd.first..nd.first + nd.count] {
                     let (lo, hi) = &self.boxes[q as usize];
-                    if skip(q) || box_dist2(x, lo, hi) >= bound(&best) {
+                    if skip(q) || box_gap2(x, lo, hi) >= bound(&best) {
                         continue;
                     }
                     if let Some(c) = self.bvhs[q as usize].closest(x, None) {
@@ -537,8 +521,8 @@ impl PartIndex {
             } else {
                 // The nearer child last, so it is opened first.
                 let (l, r) = (nd.first, nd.first + 1);
-                let dl = box_dist2(x, &self.nodes[l].lo, &self.nodes[l].hi);
-                let dr = box_dist2(x, &self.nodes[r].lo, &self.nodes[r].hi);
+                let dl = box_gap2(x, &self.nodes[l].lo, &self.nodes[l].hi);
+                let dr = box_gap2(x, &self.nodes[r].lo, &self.nodes[r].hi);
                 let (first, second) = if dl <= dr { (r, l) } else { (l, r) };
                 stack[len] = first;
                 stack[len + 1] = second;

@@ -615,13 +615,17 @@ fn split_node(
 
 #[inline(always)]
 fn box_dist2(p: V3, n: &Node) -> f64 {
+    box_gap2(p, &n.lo.map(f64::from), &n.hi.map(f64::from))
+}
+
+/// Squared distance from `p` to the box `lo..hi` (0 inside).
+#[inline(always)]
+pub(crate) fn box_gap2(p: V3, lo: &V3, hi: &V3) -> f64 {
     // Branch-free: at most one of `lo − x` and `x − hi` is positive (`lo ≤ hi`), so
     // the sum is exactly the gap (or zero) of the branching form.
     let mut d = 0.0;
-    for (k, &x) in p.iter().enumerate() {
-        let lo = f64::from(n.lo[k]);
-        let hi = f64::from(n.hi[k]);
-        let e = (lo - x).max(0.0) + (x - hi).max(0.0);
+    for k in 0..3 {
+        let e = (lo[k] - p[k]).max(0.0) + (p[k] - hi[k]).max(0.0);
         d += e * e;
     }
     d

@@ -227,9 +227,10 @@ pub(crate) fn repair(
     // the caller's rayon pool) when `parallel`, their facing-away lists joined in
     // order.
     let shared: &Mesh = out;
-    let scan_run = |first: usize| {
+    let scan_run = |run: usize| {
         let mut away = Vec::new();
         let mut g = 0.0f64;
+        let first = run * SCAN_RUN;
         for t in first..(first + SCAN_RUN).min(shared.triangles.len()) {
             let mut hint = start(shared, t);
             let k = known.and_then(|k| k.get(t)).and_then(Option::as_ref);
@@ -241,15 +242,11 @@ pub(crate) fn repair(
         }
         (away, g)
     };
-    let firsts = (0..shared.triangles.len()).step_by(SCAN_RUN);
+    let runs = 0..shared.triangles.len().div_ceil(SCAN_RUN);
     let scanned: Vec<(Vec<u32>, f64)> = if parallel {
-        firsts
-            .collect::<Vec<_>>()
-            .into_par_iter()
-            .map(scan_run)
-            .collect()
+        runs.into_par_iter().map(scan_run).collect()
     } else {
-        firsts.map(scan_run).collect()
+        runs.map(scan_run).collect()
     };
     let g = scanned.iter().map(|s| s.1).fold(0.0f64, f64::max);
     let away: Vec<u32> = scanned.into_iter().flat_map(|s| s.0).collect();

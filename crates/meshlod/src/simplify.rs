@@ -265,14 +265,21 @@ pub struct SimplifyOptions {
     /// (slower; the reference the chunked runs are measured against). Default
     /// `true`.
     pub chunks: bool,
-    /// [`Method::Qem`]: permissive seams. By default an attribute-seam or
-    /// material-border point only slides along its seam (and seam junctions along
-    /// one of their seams); permissive, such a point may also collapse across the
-    /// seam, moving the seam line, and pays for it in the cost (seam constraint
-    /// planes and attribute terms). Reaches lower counts on meshes cut by many
-    /// seams at the price of texture distortion near them. Open borders are kept
-    /// either way. Default `false`.
+    /// [`Method::Qem`]: permissive seams. An attribute-seam or material-border
+    /// point slides along its seam (and a seam junction along one of its seams);
+    /// by default it may also collapse across the seam, moving the seam line,
+    /// where every collapse that keeps the seam costs ten times more
+    /// ([`QemOptions::seam_crossing_penalty`]), which keeps meshes cut by many
+    /// seams from stalling or tearing at low counts. Permissive, a crossing costs
+    /// what its seam constraint planes and attribute terms say, like any other
+    /// collapse: lower errors and lower counts, some texture distortion near the
+    /// seams; a skinned mesh's wedges of different dominant joints may then merge
+    /// too (otherwise refused). Open borders are kept either way. Default `false`.
     pub permissive: bool,
+    /// [`Method::Qem`]: seams are never crossed (a seam point only slides along
+    /// its seam, whatever that costs; a mesh cut by many seams may stop above its
+    /// target). Excludes [`Self::permissive`]. Default `false`.
+    pub strict_seams: bool,
     /// [`Method::Qem`]: weights of the normals, texture coordinates and colours in
     /// the cost (Hoppe 1999's attribute quadric; `0` leaves a stream out). The
     /// merged vertices' attributes are then the values that minimise that cost.
@@ -314,6 +321,7 @@ impl Default for SimplifyOptions {
             threads: None,
             chunks: true,
             permissive: false,
+            strict_seams: false,
             attribute_weights: AttributeWeights::default(),
         }
     }
@@ -326,6 +334,14 @@ impl SimplifyOptions {
     /// junctions fixed).
     pub(crate) fn moves_junctions(&self) -> bool {
         self.method == Method::Qem && self.placement != Placement::Endpoint
+    }
+
+    /// Whether collapses may cross seams ([`Self::permissive`], or by default
+    /// with QEM's moving placements, at a penalty; never with
+    /// [`Self::strict_seams`]).
+    pub(crate) fn crosses_seams(&self) -> bool {
+        !self.strict_seams
+            && (self.permissive && self.method == Method::Qem || self.moves_junctions())
     }
 
     /// Sets [`Self::fit_iterations`].
@@ -571,6 +587,12 @@ impl SimplifyOptions {
         }
         if self.threads == Some(0) {
             return bad("threads", "0 threads: give 1 or more".to_string());
+        }
+        if self.permissive && self.strict_seams {
+            return bad(
+                "strict_seams",
+                "strict seams and permissive seams exclude each other".to_string(),
+            );
         }
         if let Some(t) = self.pair_threshold {
             if !(t.value() >= 0.0 && t.value().is_finite()) {
@@ -987,7 +1009,8 @@ fn decimate_mesh(
             move_junctions: options.moves_junctions(),
             move_non_manifold: options.moves_junctions(),
             move_pinches: !options.preserve_topology,
-            permissive: options.permissive && options.method == Method::Qem,
+            permissive: options.crosses_seams(),
+            merge_joints: options.permissive && options.method == Method::Qem,
         },
     );
     if let Some(p) = &piece {
@@ -1081,6 +1104,11 @@ impl Models {
             condition: options.solve_condition,
             displacement_guard: options.displacement_guard,
             attribute_weights: options.attribute_weights,
+            seam_crossing_penalty: if options.permissive {
+                1.0
+            } else {
+                QemOptions::default().seam_crossing_penalty
+            },
             ..QemOptions::default()
         };
         Self {

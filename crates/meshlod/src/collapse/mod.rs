@@ -88,6 +88,11 @@ pub struct Moves {
     pub merge: Merge,
     /// Whether `a` and `b` share an edge (`false`: a non-edge pair contraction).
     pub edge: bool,
+    /// Whether the half-edge collapse `a → b` (first) and `b → a` (second) would
+    /// cross an attribute seam or material border: a seam point or junction leaving
+    /// along an edge that is not a seam, which only a surface built with
+    /// [`BuildOptions::permissive`] allows. A cost model may price these higher.
+    pub crosses: [bool; 2],
 }
 
 /// Where a merged vertex may be placed when both endpoints may move.

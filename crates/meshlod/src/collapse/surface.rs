@@ -109,9 +109,14 @@ pub struct BuildOptions<'a> {
     /// junction) may also collapse across its seam, along any interior edge; the
     /// wedges on that edge's side merge, the others move with the point (their
     /// attributes taken at the new place), so the seam line moves. The cost model
-    /// pays for it through its seam planes and attribute terms. Open borders are
-    /// still kept. Default `false`.
+    /// pays for it through its seam planes and attribute terms (and may price it
+    /// higher, [`super::Moves::crosses`]). Open borders are still kept. Default
+    /// `false`.
     pub permissive: bool,
+    /// Let wedges whose dominant skin joints differ merge (with
+    /// [`Self::permissive`]: a skin's joint borders are then crossed like other
+    /// seams). Default `false`: a collapse that would merge them is refused.
+    pub merge_joints: bool,
     /// Let non-manifold chains simplify along themselves: a point whose only
     /// non-manifold edges are two (a point inside a chain of edges shared by three
     /// or more triangles), whose every sheet (fan) runs from one of them to the
@@ -284,6 +289,7 @@ pub struct Surface {
     move_junctions: bool,
     move_pinches: bool,
     permissive: bool,
+    merge_joints: bool,
     /// Per point: a point inside a non-manifold chain that may slide along it
     /// ([`BuildOptions::move_non_manifold`]); empty without that option.
     chain: Vec<bool>,
@@ -403,6 +409,7 @@ impl Surface {
             move_junctions,
             move_pinches: options.move_pinches,
             permissive: options.permissive,
+            merge_joints: options.merge_joints,
             chain: if options.move_non_manifold {
                 vec![false; np]
             } else {
@@ -1297,6 +1304,7 @@ impl Surface {
                 b_to_a: true,
                 merge: Merge::Anywhere,
                 edge,
+                crosses: [false; 2],
             });
         }
         let (count, seam) = self.edge_info(a, b);
@@ -1314,6 +1322,7 @@ impl Surface {
                 b_to_a: fb,
                 merge: if fa && fb { Merge::Anywhere } else { Merge::No },
                 edge: false,
+                crosses: [false; 2],
             });
         }
         if count > 2 {
@@ -1331,11 +1340,12 @@ impl Surface {
                     Merge::No
                 },
                 edge: true,
+                crosses: [false; 2],
             });
         }
         let border_edge = count == 1;
-        let crosses = self.permissive && !border_edge;
-        let can = |x: u32, kx: VertexKind, ky: VertexKind| match kx {
+        let crosses_ok = self.permissive && !border_edge;
+        let can = |crosses: bool, x: u32, kx: VertexKind, ky: VertexKind| match kx {
             VertexKind::Manifold => true,
             VertexKind::Border => {
                 border_edge
@@ -1367,7 +1377,11 @@ impl Surface {
             }
             _ => false,
         };
-        let (a_to_b, b_to_a) = (can(a, ka, kb), can(b, kb, ka));
+        let (a_to_b, b_to_a) = (can(crosses_ok, a, ka, kb), can(crosses_ok, b, kb, ka));
+        let crosses = [
+            a_to_b && !can(false, a, ka, kb),
+            b_to_a && !can(false, b, kb, ka),
+        ];
         if !a_to_b && !b_to_a {
             return None;
         }
@@ -1381,6 +1395,7 @@ impl Surface {
             b_to_a,
             merge,
             edge: true,
+            crosses,
         })
     }
 
@@ -1614,9 +1629,9 @@ impl Surface {
                 }
             }
             // Skins: the dominant joint is a discontinuity that is kept (unless
-            // permissive): merged wedges must share it.
+            // joints may merge): merged wedges must share it.
             if let (false, Some(j), Some(wt)) =
-                (self.permissive, &self.attrs.joints, &self.attrs.weights)
+                (self.merge_joints, &self.attrs.joints, &self.attrs.weights)
             {
                 let dominant = |w: u32| {
                     let (jj, ww) = (j[w as usize], wt[w as usize]);

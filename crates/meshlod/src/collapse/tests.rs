@@ -691,3 +691,69 @@ fn a_pinch_slides_onto_a_neighbour_only_when_allowed() {
         assert_eq!(s.components_and_border_points(), (1, 0));
     }
 }
+
+/// A skinned 4 × 4 grid over the unit square: points left of x = 0.5 follow
+/// joint 0, the others joint 1 (weight 0.7; joint 2 takes the rest); the column
+/// of squares right of x = 0.75 is a UV chart of its own (a seam, so the surface
+/// keeps wedges).
+///
+/// ```text
+///   +--+--+--+ +--+
+///   |  |  |  | |  |      a = (0.25, 0.5), joint 0
+///   +--a--b--+ +--+      b = (0.5, 0.5), joint 1
+///   |  |  |  | |  |
+/// ```
+///
+/// Collapsing `a` onto `b` merges wedges of different dominant joints: refused
+/// on a surface that may cross seams (the default with QEM), allowed only when
+/// joints may merge (`--permissive`).
+#[test]
+fn dominant_joints_stay_apart_unless_they_may_merge() {
+    let g = generate::grid(4, 4, |_, _| 0.0);
+    let mut positions = g.positions.clone();
+    let mut uv: Vec<[f32; 2]> = g.positions.iter().map(|p| [p[0], p[1]]).collect();
+    let mut copies = std::collections::HashMap::new();
+    let mut tris = Vec::new();
+    for t in &g.triangles {
+        let right = t.iter().all(|&v| g.positions[v as usize][0] >= 0.75);
+        tris.push(t.map(|v| {
+            if !right {
+                return v;
+            }
+            *copies.entry(v).or_insert_with(|| {
+                let p = g.positions[v as usize];
+                positions.push(p);
+                uv.push([p[0] + 10.0, p[1]]);
+                positions.len() as u32 - 1
+            })
+        }));
+    }
+    let mut m = Mesh::from_triangles(positions, tris);
+    let joint = |p: &[f32; 3]| u16::from(p[0] >= 0.5);
+    m.attributes.joints = Some(m.positions.iter().map(|p| [joint(p), 2, 0, 0]).collect());
+    m.attributes.weights = Some(vec![[0.7, 0.3, 0.0, 0.0]; m.positions.len()]);
+    m.attributes.uv0 = Some(uv);
+    for (merge_joints, want) in [(false, Err(Reject::Seam)), (true, Ok(()))] {
+        let (mut s, _) = Surface::build(
+            &m,
+            &BuildOptions {
+                permissive: true,
+                merge_joints,
+                ..BuildOptions::default()
+            },
+        );
+        let at = |x: [f32; 3]| {
+            (0..s.point_count() as u32)
+                .find(|&p| s.position(p) == x)
+                .expect("point")
+        };
+        let (a, b) = (at([0.25, 0.5, 0.0]), at([0.5, 0.5, 0.0]));
+        let mut pv = Preview::default();
+        let p = s.position(b);
+        assert_eq!(
+            s.check(a, b, p, &limits(), &mut pv),
+            want,
+            "merge_joints {merge_joints}"
+        );
+    }
+}

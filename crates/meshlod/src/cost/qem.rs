@@ -94,6 +94,13 @@ pub struct QemOptions {
     /// minimise it at its position (with [`Placement::Endpoint`], where no vertex
     /// moves, they keep their values). Default [`AttributeWeights::default`].
     pub attribute_weights: AttributeWeights,
+    /// Factor on the cost of a collapse that crosses an attribute seam or material
+    /// border ([`Moves::crosses`]; the surface must allow them): `1` prices it
+    /// like any other (its attribute terms and seam planes), larger values take a
+    /// crossing only where every collapse that keeps the seam costs that many
+    /// times more. The factor stays in the cost, so it counts in error bounds and
+    /// in the reported error. Default 10.
+    pub seam_crossing_penalty: f64,
 }
 
 impl Default for QemOptions {
@@ -107,6 +114,7 @@ impl Default for QemOptions {
             area_exponent: 1.0,
             displacement_guard: 0.0,
             attribute_weights: AttributeWeights::default(),
+            seam_crossing_penalty: 10.0,
         }
     }
 }
@@ -255,8 +263,12 @@ impl Qem {
             _ => {}
         }
         // Half-edge collapses only: the cheaper direction; on a tie, removing `a`.
-        let onto_b = moves.a_to_b.then(|| at(a, b, pb));
-        let onto_a = moves.b_to_a.then(|| at(b, a, pa));
+        let penalty = self.options.seam_crossing_penalty;
+        let priced = |(choice, cost): (Choice, f64), crosses: bool| {
+            (choice, if crosses { cost * penalty } else { cost })
+        };
+        let onto_b = moves.a_to_b.then(|| priced(at(a, b, pb), moves.crosses[0]));
+        let onto_a = moves.b_to_a.then(|| priced(at(b, a, pa), moves.crosses[1]));
         match (onto_b, onto_a) {
             (Some(x), Some(y)) => Some(if (y.1, b) < (x.1, a) { y } else { x }),
             (x, y) => x.or(y),
@@ -497,6 +509,37 @@ mod tests {
     use crate::collapse::BuildOptions;
     use crate::mesh::Mesh;
 
+    /// A half-edge collapse that crosses a seam costs `seam_crossing_penalty` times
+    /// the same collapse that does not; with both directions open, the cheaper
+    /// priced one wins.
+    #[test]
+    fn a_seam_crossing_costs_its_penalty() {
+        let mesh = crate::mesh::generate::grid(6, 5, |x, y| 0.2 * (2.0 * x).sin() * y);
+        let (surface, _) = Surface::build(&mesh, &BuildOptions::default());
+        let mut qem = Qem::new(QemOptions::default());
+        qem.init(&surface);
+        let penalty = QemOptions::default().seam_crossing_penalty;
+        let moves = |a_to_b, b_to_a, crosses| Moves {
+            a_to_b,
+            b_to_a,
+            merge: Merge::No,
+            edge: true,
+            crosses,
+        };
+        let mut checked = 0;
+        for t in 0..surface.triangle_slots() as u32 {
+            let [a, b, _] = surface.triangle(t);
+            let cost = |m: Moves| qem.evaluate_cost(&surface, a, b, &m).expect("a move");
+            let plain = cost(moves(true, false, [false; 2]));
+            assert_eq!(cost(moves(true, false, [true, false])), plain * penalty);
+            let back = cost(moves(false, true, [false; 2]));
+            let both = cost(moves(true, true, [true, false]));
+            assert_eq!(both, back.min(plain * penalty));
+            checked += usize::from(plain > 0.0);
+        }
+        assert!(checked > 10, "{checked} edges with a positive cost");
+    }
+
     /// `evaluate_cost` and `evaluate_cost_near` (what the driver queues) are bit for
     /// bit the cost of `evaluate`, for every edge of a bumpy open grid (interior,
     /// border and corner points), every placement and every combination of allowed
@@ -519,12 +562,17 @@ mod tests {
                 for k in 0..3 {
                     let (a, b) = (tt[k], tt[(k + 1) % 3]);
                     for merge in [Merge::Anywhere, Merge::OnSegment, Merge::No] {
-                        for (a_to_b, b_to_a) in [(true, true), (true, false), (false, true)] {
+                        let dirs = [(true, true), (true, false), (false, true)];
+                        let crossings = [[false; 2], [true, false], [false, true]];
+                        for ((a_to_b, b_to_a), crosses) in
+                            dirs.into_iter().flat_map(|d| crossings.map(|c| (d, c)))
+                        {
                             let moves = Moves {
                                 a_to_b,
                                 b_to_a,
                                 merge,
                                 edge: true,
+                                crosses,
                             };
                             let full = qem.evaluate(&surface, a, b, &moves).map(|c| c.cost);
                             let lean = qem.evaluate_cost(&surface, a, b, &moves);

@@ -114,7 +114,8 @@ pub fn simplify_levels(
             move_junctions: options.moves_junctions(),
             move_non_manifold: options.moves_junctions(),
             move_pinches: !options.preserve_topology,
-            permissive: options.permissive && options.method == Method::Qem,
+            permissive: options.crosses_seams(),
+            merge_joints: options.permissive && options.method == Method::Qem,
         },
     );
     let diag = surface.diagonal();

@@ -1000,8 +1000,30 @@ fn report(
         out!("{}", serde_json::to_string(&report)?);
     } else {
         print_text(&report);
+        if let Some(hint) = stall_hint(args, &report) {
+            out!("  hint         {hint}");
+        }
     }
     Ok(())
+}
+
+/// What may take an edge-collapse run that stopped above its target further:
+/// `--free-topology` when parts or holes were kept, `--permissive` when seams
+/// were kept strictly. `None` when the target was reached (within 1%) or neither
+/// applies.
+fn stall_hint(args: &SimplifyArgs, r: &CliReport) -> Option<&'static str> {
+    let above = r.triangles_out as f64 > r.target_triangles as f64 * 1.01 + 1.0;
+    let collapse = matches!(args.method, MethodArg::Qem | MethodArg::Melax);
+    if !above || !collapse || r.stop_reason != StopReason::NoLegalCollapse {
+        return None;
+    }
+    if !args.free_topology {
+        Some("--free-topology lets holes close and separate parts go whole, which may reach the target")
+    } else if args.strict_seams {
+        Some("without --strict-seams, seams may be crossed where keeping them costs more")
+    } else {
+        None
+    }
 }
 
 /// Totals over the parts of a scene.

@@ -12,10 +12,11 @@
 //!    QEM decimation as a whole mesh, with its border points locked (as well as
 //!    the caller's locked vertices), until its cheapest collapse costs more than
 //!    a bound common to all chunks (every chunk's costs scaled by the whole
-//!    mesh's diagonal), and never below the final ratio. The bound is where a
-//!    few sampled chunks, run to the final ratio first, kept [`chunk_keep`] (at
-//!    least [`border_keep`]) of their triangles; without one (the samples
-//!    stopped above it) the chunks stop at that fraction. Every chunk then
+//!    mesh's diagonal), and never below the final ratio. The bound is where
+//!    sampled pieces (a quarter of every second chunk, [`SAMPLE_PIECE`]), run
+//!    to the final ratio first, kept [`chunk_keep`] (at least [`border_keep`])
+//!    of their triangles; without one (the samples stopped above it) the chunks
+//!    stop at that fraction. Every chunk then
 //!    holds the collapses the whole mesh's greedy order performs first, so a
 //!    rough chunk keeps more than a flat one. (A bound on the collapses'
 //!    *error* instead does not stop a chunk there: the queue is ordered by cost,
@@ -239,9 +240,17 @@ fn par_map<T: Sync, R: Send>(
     }
 }
 
-/// Every `SAMPLE_STRIDE`-th chunk is run to the final ratio first, to learn
-/// which cost the chunks should stop at.
-const SAMPLE_STRIDE: usize = 8;
+/// A piece of every `SAMPLE_STRIDE`-th chunk is run to the final ratio first, to
+/// learn which cost the chunks should stop at.
+const SAMPLE_STRIDE: usize = 2;
+
+/// A sampled piece is the first `1 / SAMPLE_PIECE` of its chunk's triangles (a
+/// run in Z order, so a compact patch), its points shared with the rest of the
+/// chunk locked as well: an eighth of the mesh in all, as whole chunks at every
+/// eighth, but spread over four times as many places and, on a mesh of a few
+/// chunks, run on every thread at once (a 1M-triangle mesh has four chunks, so
+/// one sampled chunk ran alone).
+const SAMPLE_PIECE: usize = 4;
 
 /// A sampled chunk's run: its size and, per collapse in order, the triangles it
 /// removed and its cost.
@@ -273,14 +282,15 @@ fn sample_curves(
 ) -> Vec<Curve> {
     let picked: Vec<&Vec<u32>> = part.chunks.iter().step_by(SAMPLE_STRIDE).collect();
     par_map(pool, &picked, |tris| {
+        let (sampled, rest) = tris.split_at(tris.len().div_ceil(SAMPLE_PIECE));
         let mut rec = Recorder::default();
         let piece = Piece {
             diagonal,
             max_cost: None,
         };
-        simplify_chunk(mesh, part, tris, options, ratio, piece, &mut rec);
+        simplify_chunk(mesh, part, sampled, rest, options, ratio, piece, &mut rec);
         Curve {
-            triangles: tris.len(),
+            triangles: sampled.len(),
             steps: rec.0,
         }
     })
@@ -339,7 +349,16 @@ fn run_chunks(
     let mut removed = 0usize;
     for wave in part.chunks.chunks(4 * width.max(1)) {
         let done = par_map(pool, wave, |tris| {
-            simplify_chunk(mesh, part, tris, options, ratio, piece, &mut NoObserver)
+            simplify_chunk(
+                mesh,
+                part,
+                tris,
+                &[],
+                options,
+                ratio,
+                piece,
+                &mut NoObserver,
+            )
         });
         for (tris, r) in wave.iter().zip(&done) {
             removed += tris.len().saturating_sub(r.out.triangles.len());
@@ -353,11 +372,14 @@ fn run_chunks(
 /// The mesh of one chunk (`tris` of `mesh`), simplified to `chunk_ratio` of its
 /// triangles, or until its cheapest collapse costs more than the piece's bound
 /// (costs scaled by the whole mesh's diagonal), with its border vertices (and
-/// the caller's locked ones) locked.
+/// the caller's locked ones, and those at a position `beside`'s triangles use:
+/// the rest of a chunk `tris` is a piece of) locked.
+#[allow(clippy::too_many_arguments)]
 fn simplify_chunk(
     mesh: &Mesh,
     part: &Partition,
     tris: &[u32],
+    beside: &[u32],
     options: &SimplifyOptions,
     chunk_ratio: f64,
     piece: Piece,
@@ -365,9 +387,19 @@ fn simplify_chunk(
 ) -> ChunkResult {
     let (sub, verts) = extract(mesh, tris);
     let user = options.locked_vertices.as_deref();
+    let bits = |v: u32| mesh.positions[v as usize].map(f32::to_bits);
+    let cut: std::collections::HashSet<[u32; 3]> = beside
+        .iter()
+        .flat_map(|&t| mesh.triangles[t as usize])
+        .map(bits)
+        .collect();
     let locked: Vec<bool> = verts
         .iter()
-        .map(|&v| part.border[v as usize] || user.is_some_and(|l| l[v as usize]))
+        .map(|&v| {
+            part.border[v as usize]
+                || user.is_some_and(|l| l[v as usize])
+                || !cut.is_empty() && cut.contains(&bits(v))
+        })
         .collect();
     let mut o = options.clone();
     o.locked_vertices = Some(locked);

@@ -1007,10 +1007,10 @@ fn report(
     Ok(())
 }
 
-/// What may take an edge-collapse run that stopped above its target further:
-/// `--free-topology` when parts or holes were kept, `--permissive` when seams
-/// were kept strictly. `None` when the target was reached (within 1%) or neither
-/// applies.
+/// What may take an edge-collapse run that stopped above its target (by more
+/// than 1%, for lack of a legal collapse) further: `--free-topology` when the
+/// topology was kept, else crossing seams when `--strict-seams` kept them.
+/// `None` when neither applies.
 fn stall_hint(args: &SimplifyArgs, r: &CliReport) -> Option<&'static str> {
     let above = r.triangles_out as f64 > r.target_triangles as f64 * 1.01 + 1.0;
     let collapse = matches!(args.method, MethodArg::Qem | MethodArg::Melax);

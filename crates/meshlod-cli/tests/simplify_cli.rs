@@ -30,7 +30,6 @@ fn simplify(input: impl AsRef<Path>, output: impl AsRef<Path>, extra: &[&str]) -
     meshlod(&args)
 }
 
-/// The stderr of a run that succeeded with a JSON report.
 /// Standard output of a run that succeeded.
 fn stdout_of_ok(out: &Output) -> String {
     assert!(
@@ -41,6 +40,7 @@ fn stdout_of_ok(out: &Output) -> String {
     String::from_utf8_lossy(&out.stdout).into_owned()
 }
 
+/// The stderr of a run that succeeded with a JSON report.
 fn stderr_of_ok(out: &Output) -> String {
     json(out);
     String::from_utf8_lossy(&out.stderr).into_owned()

@@ -274,7 +274,9 @@ pub struct SimplifyOptions {
     /// what its seam constraint planes and attribute terms say, like any other
     /// collapse: lower errors and lower counts, some texture distortion near the
     /// seams; a skinned mesh's wedges of different dominant joints may then merge
-    /// too (otherwise refused). Open borders are kept either way. Default `false`.
+    /// too (otherwise refused). Open borders are kept either way. With
+    /// [`Placement::Endpoint`] (the half-edge runs a progressive mesh records)
+    /// seams are crossed only when permissive. Default `false`.
     pub permissive: bool,
     /// [`Method::Qem`]: seams are never crossed (a seam point only slides along
     /// its seam, whatever that costs; a mesh cut by many seams may stop above its

@@ -517,9 +517,25 @@ fn seam_junction_slides_along_its_seam() {
         .moves(c, p1, false)
         .expect("a junction may slide along its seam");
     assert!(mv.a_to_b && !mv.b_to_a && mv.merge == Merge::No);
+    assert_eq!(mv.crosses, [false; 2], "along its seam");
     // Not across a chart: edge 0–2 is inside chart A.
     let p2 = point_at(&s, ring[1]);
     assert!(s.moves(c, p2, false).is_none_or(|m| !m.a_to_b));
+    // A surface that may cross seams offers that move, marked as a crossing
+    // (the ring point may move onto the junction: no crossing that way).
+    let (crossing, _) = Surface::build(
+        &m,
+        &BuildOptions {
+            move_junctions: true,
+            permissive: true,
+            ..BuildOptions::default()
+        },
+    );
+    let across = crossing.moves(c, p2, false).expect("across the seam");
+    assert!(across.a_to_b, "{across:?}");
+    assert!(across.crosses[0] && !across.crosses[1], "{across:?}");
+    let along = crossing.moves(c, p1, false).expect("along the seam");
+    assert_eq!(along.crosses, [false; 2], "{along:?}");
     s.check(c, p1, s.position(p1), &limits(), &mut pv)
         .expect("legal");
     s.collapse(c, p1, s.position(p1));

@@ -99,7 +99,8 @@ pub struct QemOptions {
     /// like any other (its attribute terms and seam planes), larger values take a
     /// crossing only where every collapse that keeps the seam costs that many
     /// times more. The factor stays in the cost, so it counts in error bounds and
-    /// in the reported error. Default 10.
+    /// in the reported error; a crossing that costs nothing (no attribute terms,
+    /// a straight seam) stays free. Must be finite and at least 1. Default 10.
     pub seam_crossing_penalty: f64,
 }
 
@@ -134,8 +135,16 @@ pub struct Qem {
 
 impl Qem {
     /// A QEM cost model with `options`.
+    ///
+    /// # Panics
+    /// If [`QemOptions::seam_crossing_penalty`] is not finite and at least 1.
     #[must_use]
     pub fn new(options: QemOptions) -> Self {
+        let p = options.seam_crossing_penalty;
+        assert!(
+            p.is_finite() && p >= 1.0,
+            "seam_crossing_penalty {p} is not finite and at least 1"
+        );
         Self {
             options,
             quadrics: Vec::new(),

@@ -692,9 +692,11 @@ fn simplify_group(
     o.threads = Some(1);
     let mut result = simplify_observed(&group, &o, &mut NoObserver)?;
     let seams = !group.attributes.is_empty() || group.groups.is_some();
-    if result.mesh.triangles.len() * 4 > n * 3 && seams && !o.permissive {
+    if result.mesh.triangles.len() * 4 > n * 3 && seams && !o.permissive && !o.strict_seams {
         // Seams (UV, normal creases, materials) can leave a group no legal
-        // collapse: then collapses may cross them, paying their attribute cost.
+        // collapse that keeps them, or only dear ones: then crossings cost what
+        // their attribute terms say, without the last-resort penalty, and skin
+        // joints may merge.
         o.permissive = true;
         result = simplify_observed(&group, &o, &mut NoObserver)?;
     }

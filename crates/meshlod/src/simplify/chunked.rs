@@ -201,8 +201,7 @@ pub(super) fn simplify_chunked(
         fit: false,
     };
     // The global pass's freed memory too, before the repair builds its tree over
-    // the input (the run's peak: on the 1M grid at 10% on two threads 158 → 129
-    // bytes per input triangle).
+    // the input, where the run peaks (docs/methods/qem.md, "Sampled pieces").
     release_free_memory();
     let (_, facing) = refine(mesh, options, &mut out, &vertex_source, None, passes, diag);
     let phases = Phases {
@@ -256,7 +255,7 @@ const SAMPLE_STRIDE: usize = 2;
 /// one sampled chunk ran alone).
 const SAMPLE_PIECE: usize = 4;
 
-/// A sampled chunk's run: its size and, per collapse in order, the triangles it
+/// A sampled piece's run: its size and, per collapse in order, the triangles it
 /// removed and its cost.
 struct Curve {
     triangles: usize,
@@ -274,8 +273,8 @@ impl Observer for Recorder {
     }
 }
 
-/// Runs every `SAMPLE_STRIDE`-th chunk (the first at least) to `ratio` of its
-/// triangles, recording each collapse.
+/// Runs the first `1 / SAMPLE_PIECE` of every `SAMPLE_STRIDE`-th chunk (the
+/// first chunk at least) to `ratio` of its triangles, recording each collapse.
 fn sample_curves(
     mesh: &Mesh,
     part: &Partition,
@@ -391,7 +390,8 @@ fn simplify_chunk(
 ) -> ChunkResult {
     let (sub, verts) = extract(mesh, tris);
     let user = options.locked_vertices.as_deref();
-    let bits = |v: u32| mesh.positions[v as usize].map(f32::to_bits);
+    // (+0.0 folds −0.0 into 0.0, as the weld does.)
+    let bits = |v: u32| mesh.positions[v as usize].map(|x| (x + 0.0).to_bits());
     let cut: std::collections::HashSet<[u32; 3]> = beside
         .iter()
         .flat_map(|&t| mesh.triangles[t as usize])

@@ -261,7 +261,8 @@ struct SimplifyReport {
 #[pyo3(signature = (
     vertices, faces, *, ratio=None, triangles=None, max_error=None, absolute=false,
     method="qem", lock_boundary=false, locked=None, fit=false, swap=false, measure=false,
-    threads=None, normals=None, uvs=None, colors=None, free_topology=false
+    threads=None, normals=None, uvs=None, colors=None, free_topology=false,
+    permissive=false, strict_seams=false
 ))]
 #[allow(clippy::too_many_arguments)]
 fn simplify<'py>(
@@ -283,6 +284,8 @@ fn simplify<'py>(
     uvs: Option<&Bound<'py, PyAny>>,
     colors: Option<&Bound<'py, PyAny>>,
     free_topology: bool,
+    permissive: bool,
+    strict_seams: bool,
 ) -> PyResult<Bound<'py, PyTuple>> {
     let method = self::method(method)?;
     let threads = count(threads, "threads")?;
@@ -300,6 +303,8 @@ fn simplify<'py>(
         .with_lock_boundary(lock_boundary)
         .with_preserve_topology(!free_topology)
         .with_threads(threads);
+    opts.permissive = permissive;
+    opts.strict_seams = strict_seams;
     if let Some(r) = ratio {
         opts = opts.with_ratio(r);
     }

@@ -385,6 +385,8 @@ TIMES = {"seconds", "phase_seconds"}
         (["--method", "cluster", "--ratio", "0.05"], {"method": "cluster", "ratio": 0.05}),
         (["--max-error", "0.002", "--lock-boundary"], {"max_error": 0.002, "lock_boundary": True}),
         (["--ratio", "0.01", "--free-topology"], {"ratio": 0.01, "free_topology": True}),
+        (["--ratio", "0.05", "--permissive"], {"ratio": 0.05, "permissive": True}),
+        (["--ratio", "0.05", "--strict-seams"], {"ratio": 0.05, "strict_seams": True}),
     ],
 )
 def test_same_as_cli(tmp_path, args, kwargs):
@@ -458,3 +460,18 @@ def test_measure_appearance_same_as_cli(tmp_path):
     assert "appearance" not in off
     with pytest.raises(ValueError):
         meshlod.measure(rv, rf, sv, sf, a_attributes={"tangents": rv})
+
+
+def test_seams_are_crossed_as_a_last_resort_unless_strict():
+    # The Duck (UV charts) at 3%: by default seams are crossed where keeping them
+    # costs ten times more and the target is reached; with strict seams the run
+    # stops far above it; strict and permissive together are refused.
+    v, f, attrs = meshlod.read(DATA / "Duck" / "Duck.gltf")
+    kw = {"ratio": 0.03, "normals": attrs.get("normals"), "uvs": attrs["uvs"]}
+    _, df, dr = meshlod.simplify(v, f, **kw)
+    assert dr["stop_reason"] == "target_reached", dr["stop_detail"]
+    _, sf, sr = meshlod.simplify(v, f, strict_seams=True, **kw)
+    assert sr["stop_reason"] != "target_reached"
+    assert len(sf) > 2 * len(df)
+    with pytest.raises(ValueError, match="exclude each other"):
+        meshlod.simplify(v, f, strict_seams=True, permissive=True, **kw)

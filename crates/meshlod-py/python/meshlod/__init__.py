@@ -117,6 +117,8 @@ def simplify(
     uvs: Optional[np.ndarray] = None,
     colors: Optional[np.ndarray] = None,
     free_topology: bool = False,
+    permissive: bool = False,
+    strict_seams: bool = False,
 ) -> Simplified:
     """Simplify a triangle mesh; returns ``(vertices, faces, report)``.
 
@@ -152,6 +154,13 @@ def simplify(
             parts be removed whole and points where parts touch slide, where that
             reaches the target (report ``holes_closed``,
             ``components_removed``); as ``--free-topology``.
+        permissive: QEM: cross texture seams and material borders at their
+            attribute cost, like any other collapse (by default a seam is
+            crossed only where keeping it costs ten times more); as
+            ``--permissive``.
+        strict_seams: QEM: never cross a seam (a mesh cut by many seams may
+            stop above its target); as ``--strict-seams``. Not with
+            ``permissive``.
 
     Returns:
         :class:`Simplified`: ``(vertices, faces, report)`` in the inputs' dtypes,
@@ -186,6 +195,8 @@ def simplify(
         uvs=_array(uvs),
         colors=_array(colors),
         free_topology=free_topology,
+        permissive=permissive,
+        strict_seams=strict_seams,
     )
     return Simplified(v, f, report, attributes, sources)
 

@@ -346,6 +346,22 @@ impl SimplifyOptions {
             && (self.permissive && self.method == Method::Qem || self.moves_junctions())
     }
 
+    /// The surface's moves these options allow (locked vertices, junctions,
+    /// chains, pinches, seam crossings, skin joints), in the input's numbering
+    /// (no spatial order) and without merge tracking.
+    pub(crate) fn build_options(&self) -> BuildOptions<'_> {
+        BuildOptions {
+            locked: self.locked_vertices.as_deref(),
+            spatial_order: false,
+            track_merges: false,
+            move_junctions: self.moves_junctions(),
+            move_non_manifold: self.moves_junctions(),
+            move_pinches: !self.preserve_topology,
+            permissive: self.crosses_seams(),
+            merge_joints: self.permissive && self.method == Method::Qem,
+        }
+    }
+
     /// Sets [`Self::fit_iterations`].
     #[must_use]
     pub fn with_fit_iterations(mut self, iterations: u32) -> Self {
@@ -1003,16 +1019,11 @@ fn decimate_mesh(
     let (mut surface, repair) = Surface::build(
         mesh,
         &BuildOptions {
-            locked: options.locked_vertices.as_deref(),
             // The edge-collapse loop's memory walks follow the one-ring; vertex
             // removal keeps the input's numbering (its measured outputs).
             spatial_order: matches!(options.method, Method::Qem | Method::Melax),
             track_merges,
-            move_junctions: options.moves_junctions(),
-            move_non_manifold: options.moves_junctions(),
-            move_pinches: !options.preserve_topology,
-            permissive: options.crosses_seams(),
-            merge_joints: options.permissive && options.method == Method::Qem,
+            ..options.build_options()
         },
     );
     if let Some(p) = &piece {

@@ -108,14 +108,8 @@ pub fn simplify_levels(
     let (mut surface, repair) = Surface::build(
         mesh,
         &BuildOptions {
-            locked: options.locked_vertices.as_deref(),
             spatial_order: true,
-            track_merges: false,
-            move_junctions: options.moves_junctions(),
-            move_non_manifold: options.moves_junctions(),
-            move_pinches: !options.preserve_topology,
-            permissive: options.crosses_seams(),
-            merge_joints: options.permissive && options.method == Method::Qem,
+            ..options.build_options()
         },
     );
     let diag = surface.diagonal();

@@ -1378,10 +1378,15 @@ impl Surface {
             _ => false,
         };
         let (a_to_b, b_to_a) = (can(crosses_ok, a, ka, kb), can(crosses_ok, b, kb, ka));
-        let crosses = [
-            a_to_b && !can(false, a, ka, kb),
-            b_to_a && !can(false, b, kb, ka),
-        ];
+        // A move only the crossing allows crosses (none without crossings).
+        let crosses = if crosses_ok {
+            [
+                a_to_b && !can(false, a, ka, kb),
+                b_to_a && !can(false, b, kb, ka),
+            ]
+        } else {
+            [false; 2]
+        };
         if !a_to_b && !b_to_a {
             return None;
         }

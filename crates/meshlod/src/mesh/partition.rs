@@ -24,6 +24,9 @@ pub struct Partition {
     /// Per vertex of the mesh: whether its position is used by triangles of more
     /// than one chunk.
     pub border: Vec<bool>,
+    /// Per vertex of the mesh: its point (position welded by exact equality,
+    /// [`Weld::exact`]), for borders drawn inside a chunk.
+    pub point_of: Vec<u32>,
 }
 
 impl Partition {
@@ -94,7 +97,11 @@ pub fn partition(mesh: &Mesh, chunk_triangles: usize) -> Partition {
         }
     }
     let border = weld.point_of.iter().map(|&p| shared[p as usize]).collect();
-    Partition { chunks, border }
+    Partition {
+        chunks,
+        border,
+        point_of: weld.point_of,
+    }
 }
 
 #[cfg(test)]

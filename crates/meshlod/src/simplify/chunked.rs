@@ -375,8 +375,8 @@ fn run_chunks(
 /// The mesh of one chunk (`tris` of `mesh`), simplified to `chunk_ratio` of its
 /// triangles, or until its cheapest collapse costs more than the piece's bound
 /// (costs scaled by the whole mesh's diagonal), with its border vertices (and
-/// the caller's locked ones, and those at a position `beside`'s triangles use:
-/// the rest of a chunk `tris` is a piece of) locked.
+/// the caller's locked ones, and those at a point `beside`'s triangles use: the
+/// rest of a chunk `tris` is a piece of) locked.
 #[allow(clippy::too_many_arguments)]
 fn simplify_chunk(
     mesh: &Mesh,
@@ -390,19 +390,18 @@ fn simplify_chunk(
 ) -> ChunkResult {
     let (sub, verts) = extract(mesh, tris);
     let user = options.locked_vertices.as_deref();
-    // (+0.0 folds −0.0 into 0.0, as the weld does.)
-    let bits = |v: u32| mesh.positions[v as usize].map(|x| (x + 0.0).to_bits());
-    let cut: std::collections::HashSet<[u32; 3]> = beside
+    let point = |v: u32| part.point_of[v as usize];
+    let cut: std::collections::HashSet<u32> = beside
         .iter()
         .flat_map(|&t| mesh.triangles[t as usize])
-        .map(bits)
+        .map(point)
         .collect();
     let locked: Vec<bool> = verts
         .iter()
         .map(|&v| {
             part.border[v as usize]
                 || user.is_some_and(|l| l[v as usize])
-                || !cut.is_empty() && cut.contains(&bits(v))
+                || !cut.is_empty() && cut.contains(&point(v))
         })
         .collect();
     let mut o = options.clone();

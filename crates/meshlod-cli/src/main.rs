@@ -16,6 +16,7 @@ macro_rules! out {
     }};
 }
 
+mod budget;
 mod dag;
 mod heatmap;
 mod impostor;

@@ -1183,7 +1183,7 @@ fn simplify_parts(
         })
     };
     let (max_error, pair_threshold) = (abs(opts.max_error), abs(opts.pair_threshold));
-    let run = |i: usize, part_opts: &mut SimplifyOptions, progress: &mut Progress| {
+    let run = |i: usize, part_opts: &SimplifyOptions, progress: &mut dyn Observer| {
         let part = &scene.parts[i];
         let scale = part_scale(part);
         let local = |d: Option<Distance>| {
@@ -1192,26 +1192,131 @@ fn simplify_parts(
                 r @ Distance::Relative(_) => r,
             })
         };
-        part_opts.max_error = local(max_error);
-        part_opts.pair_threshold = local(pair_threshold);
-        simplify_observed(&part.mesh, part_opts, progress)
+        let mut o = part_opts.clone();
+        o.max_error = local(max_error);
+        o.pair_threshold = local(pair_threshold);
+        simplify_observed(&part.mesh, &o, progress)
             .with_context(|| format!("part {i} ({})", part.name.as_deref().unwrap_or("unnamed")))
     };
-    let mut results = Vec::with_capacity(scene.parts.len());
-    for i in 0..scene.parts.len() {
-        results.push(run(i, &mut part_opts, progress)?);
-    }
+    let n_parts = scene.parts.len();
     let instances = |i: usize| scene.parts[i].instances.len();
-    // Each part's share of the target, as first asked.
-    let shares: Vec<usize> = results.iter().map(|s| s.report.target_triangles).collect();
-    let want: usize = (0..results.len()).map(|i| shares[i] * instances(i)).sum();
+    // The scene's target: each part's share at the ratio, as many times as drawn.
+    let want: usize = (0..n_parts)
+        .map(|i| part_opts.target_for(scene.parts[i].mesh.triangles.len()) * instances(i))
+        .sum();
+    let drawn = (0..n_parts).filter(|&i| instances(i) > 0).count();
+    let by_error_wanted = opts.max_error.is_none() && drawn > 1 && want < total;
+    // Several parts run at once, the bar advancing part by part; a single part
+    // runs alone with the bar following its collapses.
+    let threads = opts
+        .threads
+        .unwrap_or_else(|| std::thread::available_parallelism().map_or(1, usize::from));
+    let bar = progress.bar.clone();
+    if let Some(b) = &bar {
+        let passes = if by_error_wanted { 2 } else { 1 };
+        let work: usize = scene.parts.iter().map(|p| p.mesh.triangles.len()).sum();
+        b.set_length((passes * work) as u64);
+    }
+    let run_all = |jobs: &[(usize, SimplifyOptions)],
+                   progress: &mut Progress,
+                   curves: Option<&mut Vec<crate::budget::Curve>>|
+     -> Result<Vec<meshlod::simplify::Simplified>> {
+        let recording = curves.is_some();
+        let one = |i: usize, o: &SimplifyOptions, obs: &mut dyn Observer| {
+            let mut rec = crate::budget::CurveRecorder::new(obs, part_scale(&scene.parts[i]));
+            let r = if recording {
+                run(i, o, &mut rec)
+            } else {
+                run(i, o, rec.inner())
+            }?;
+            Ok((r, rec.curve))
+        };
+        let done: Vec<(meshlod::simplify::Simplified, crate::budget::Curve)> =
+            if jobs.len() == 1 || threads == 1 {
+                let mut v = Vec::with_capacity(jobs.len());
+                for (i, o) in jobs {
+                    v.push(one(*i, o, progress)?);
+                }
+                v
+            } else {
+                // The largest parts first, so that no large one starts last.
+                let size = |j: usize| scene.parts[jobs[j].0].mesh.triangles.len();
+                let mut order: Vec<usize> = (0..jobs.len()).collect();
+                order.sort_by_key(|&j| std::cmp::Reverse(size(j)));
+                let ran = crate::budget::run_parallel(jobs.len(), threads, |k| {
+                    let (i, o) = &jobs[order[k]];
+                    let r = one(*i, o, &mut meshlod::decimate::NoObserver);
+                    if let Some(b) = &bar {
+                        b.inc(size(order[k]) as u64);
+                    }
+                    r
+                })?;
+                let mut v: Vec<Option<_>> = (0..jobs.len()).map(|_| None).collect();
+                for (k, r) in ran.into_iter().enumerate() {
+                    v[order[k]] = Some(r);
+                }
+                v.into_iter().flatten().collect()
+            };
+        let (results, c): (Vec<_>, Vec<_>) = done.into_iter().unzip();
+        if let Some(curves) = curves {
+            *curves = c;
+        }
+        Ok(results)
+    };
+    let mut results = Vec::with_capacity(n_parts);
+    // The runs whose results were replaced: their time still counts.
+    let mut earlier = Spent::default();
+    // With the budget split by error: that error (scene units) and the parts
+    // left as far as they go.
+    let mut by_error: Option<(f64, usize)> = None;
+    if by_error_wanted {
+        // Split the budget by error (`budget`): every part as far as it goes
+        // first, recording its error curve, then again to its count.
+        let mut o = part_opts.clone();
+        o.ratio = None;
+        o.target_triangles = Some(0);
+        let jobs: Vec<_> = (0..n_parts).map(|i| (i, o.clone())).collect();
+        let mut curves = Vec::new();
+        let probes = run_all(&jobs, progress, Some(&mut curves))?;
+        let k: Vec<usize> = (0..n_parts).map(instances).collect();
+        if let Some((e, counts)) = crate::budget::split(&curves, &k, want) {
+            let again: Vec<_> = (0..n_parts)
+                .filter(|&i| counts[i] > probes[i].report.triangles_out)
+                .map(|i| {
+                    let mut o = part_opts.clone();
+                    o.ratio = None;
+                    o.target_triangles = Some(counts[i]);
+                    (i, o)
+                })
+                .collect();
+            let mut rerun = run_all(&again, progress, None)?.into_iter();
+            let mut at_floor = 0;
+            let mut next = again.iter().map(|(i, _)| *i).peekable();
+            for (i, probe) in probes.into_iter().enumerate() {
+                if next.peek() == Some(&i) {
+                    next.next();
+                    earlier.add(&probe.report);
+                    results.extend(rerun.next());
+                } else {
+                    at_floor += usize::from(k[i] > 0);
+                    results.push(probe);
+                }
+            }
+            by_error = Some((e, at_floor));
+        } else {
+            probes.iter().for_each(|p| earlier.add(&p.report));
+        }
+    }
+    if results.is_empty() {
+        let jobs: Vec<_> = (0..n_parts).map(|i| (i, part_opts.clone())).collect();
+        results = run_all(&jobs, progress, None)?;
+    }
     // Parts that cannot reach their share (a bolt of 12 triangles, a part whose
     // holes all stay) leave the scene above its target: the parts that reached
     // theirs are simplified again, further, to make up the difference (in
     // proportion to their size), up to three times. When even that cannot reach
     // the target, the first results stay: squeezing every other part as far as
     // it goes doubled VC's error for a scene still above its target.
-    let mut earlier_seconds = 0.0;
     let mut squeezed = vec![false; results.len()];
     let first = results.clone();
     if opts.max_error.is_none() {
@@ -1242,8 +1347,8 @@ fn simplify_parts(
                 let mut o = part_opts.clone();
                 o.ratio = None;
                 o.target_triangles = Some(target);
-                earlier_seconds += results[i].report.seconds;
-                results[i] = run(i, &mut o, progress)?;
+                earlier.add(&results[i].report);
+                results[i] = run(i, &o, progress)?;
                 squeezed[i] = true;
             }
         }
@@ -1255,7 +1360,7 @@ fn simplify_parts(
     if have > want && squeezed.contains(&true) {
         for (i, s) in first.into_iter().enumerate() {
             if squeezed[i] {
-                earlier_seconds += results[i].report.seconds;
+                earlier.add(&results[i].report);
                 results[i] = s;
             }
         }
@@ -1283,7 +1388,11 @@ fn simplify_parts(
         }
     }
     agg.target_triangles = want;
-    agg.seconds += earlier_seconds;
+    agg.seconds += earlier.seconds;
+    agg.phases.build += earlier.phases.build;
+    agg.phases.decimate += earlier.phases.decimate;
+    agg.phases.output += earlier.phases.output;
+    agg.phases.refine += earlier.phases.refine;
     let more = squeezed.iter().filter(|&&q| q).count();
     let parts = |n: usize| {
         if n == 1 {
@@ -1294,6 +1403,28 @@ fn simplify_parts(
     };
     let (stopped, others) = (parts(short), parts(more));
     match first_other {
+        _ if by_error.is_some() && more == 0 && agg.triangles_out <= want => {
+            let (e, at_floor) = by_error.unwrap_or_default();
+            agg.stop_reason = StopReason::TargetReached;
+            let limit = if e.is_finite() {
+                format!(
+                    " (collapses up to an error of {:.4}% of the diagonal)",
+                    100.0 * e.max(0.0) / diag.max(f64::MIN_POSITIVE)
+                )
+            } else {
+                String::new()
+            };
+            agg.stop_detail = format!(
+                "the scene reached its target ({} triangles for {want}), its budget split \
+                 between the parts by error{limit}{}",
+                agg.triangles_out,
+                if at_floor > 0 {
+                    format!(", {} simplified as far as they go", parts(at_floor))
+                } else {
+                    String::new()
+                }
+            );
+        }
         Some((_, detail)) if agg.triangles_out <= want => {
             agg.stop_reason = StopReason::TargetReached;
             agg.stop_detail = format!(
@@ -1330,6 +1461,23 @@ fn simplify_parts(
         }
     }
     Ok((out, agg))
+}
+
+/// Time spent on runs whose results were replaced.
+#[derive(Default)]
+struct Spent {
+    seconds: f64,
+    phases: Steps,
+}
+
+impl Spent {
+    fn add(&mut self, r: &Report) {
+        self.seconds += r.seconds;
+        self.phases.build += r.phases.build;
+        self.phases.decimate += r.phases.decimate;
+        self.phases.output += r.phases.output;
+        self.phases.refine += r.phases.refine;
+    }
 }
 
 /// How much a part's instances stretch it into the scene, at most (1 for one

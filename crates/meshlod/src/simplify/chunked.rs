@@ -169,6 +169,16 @@ pub(super) fn simplify_chunked(
     release_free_memory();
     let t_merge = Instant::now();
     let (merged, source) = merge(mesh, &part, &results);
+    // Only the chunks' counts are needed from here on: their meshes and the
+    // partition go before the global pass and the repair, where the run peaks.
+    drop(part);
+    let results: Vec<ChunkStats> = results
+        .into_iter()
+        .map(|r| ChunkStats {
+            outcome: r.outcome,
+            repair: r.repair,
+        })
+        .collect();
     if let Some(l) = options.locked_vertices.as_deref() {
         inner.locked_vertices = Some(source.iter().map(|&v| l[v as usize]).collect());
     } else {
@@ -195,6 +205,7 @@ pub(super) fn simplify_chunked(
         ..
     } = d;
     let vertex_source: Vec<u32> = vertex_source.iter().map(|&v| source[v as usize]).collect();
+    drop(source);
     let t_refine = Instant::now();
     let passes = Passes {
         facing: options.facing_repair && outcome.collapses > 0,
@@ -494,12 +505,18 @@ fn merge(mesh: &Mesh, part: &Partition, results: &[ChunkResult]) -> (Mesh, Vec<u
     (merged, source)
 }
 
+/// What the report needs of a chunk's run once its mesh is merged.
+struct ChunkStats {
+    outcome: Outcome,
+    repair: crate::collapse::Repair,
+}
+
 /// What [`chunked_report`] sums up.
 struct ChunkedRun<'a> {
     mesh: &'a Mesh,
     target: usize,
     diag: f64,
-    results: &'a [ChunkResult],
+    results: &'a [ChunkStats],
     out: &'a Mesh,
     global: Outcome,
     global_repair: crate::collapse::Repair,

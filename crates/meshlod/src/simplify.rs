@@ -1217,7 +1217,7 @@ fn decimate(
 
 /// Which of the passes after decimation run.
 #[derive(Debug, Clone, Copy)]
-struct Passes {
+pub(super) struct Passes {
     /// The vertex fitting and edge swaps ([`fit`]).
     fit: bool,
     /// The orientation repair ([`facing`]).
@@ -1255,7 +1255,7 @@ fn refine(
 /// [`refine`] with the closest-point tree over `mesh` given (`None` when neither
 /// pass runs).
 #[allow(clippy::too_many_arguments)]
-fn refine_with(
+pub(super) fn refine_with(
     mesh: &Mesh,
     options: &SimplifyOptions,
     out: &mut Mesh,

@@ -15,6 +15,7 @@
 
 use super::{Mesh, Weld};
 use crate::radix::{morton3, sort_by_high_half};
+use rayon::prelude::*;
 
 /// Triangles of each chunk and the border vertices between chunks.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -55,33 +56,40 @@ pub fn partition(mesh: &Mesh, chunk_triangles: usize) -> Partition {
             0.0
         }
     });
-    let mut keys: Vec<u64> = mesh
-        .triangles
-        .iter()
-        .enumerate()
-        .map(|(i, t)| {
-            let cell = |a: usize| {
-                let c = t
-                    .iter()
-                    .map(|&v| f64::from(mesh.positions[v as usize][a]))
-                    .sum::<f64>()
-                    / 3.0;
-                ((c - f64::from(lo[a])) * scale[a]).clamp(0.0, 1023.0) as u32
-            };
-            (u64::from(morton3(cell(0), cell(1), cell(2))) << 32) | i as u64
-        })
-        .collect();
-    sort_by_high_half(&mut keys);
-    let mut chunks = Vec::with_capacity(k);
-    let (base, extra) = (n / k, n % k);
-    let mut at = 0;
-    for c in 0..k {
-        let len = base + usize::from(c < extra);
-        chunks.push(keys[at..at + len].iter().map(|&x| x as u32).collect());
-        at += len;
-    }
+    // The Z-order runs and the exact weld are independent: on two threads (the
+    // caller's rayon pool) at once.
+    let (chunks, weld) = rayon::join(
+        || {
+            let mut keys: Vec<u64> = mesh
+                .triangles
+                .par_iter()
+                .enumerate()
+                .map(|(i, t)| {
+                    let cell = |a: usize| {
+                        let c = t
+                            .iter()
+                            .map(|&v| f64::from(mesh.positions[v as usize][a]))
+                            .sum::<f64>()
+                            / 3.0;
+                        ((c - f64::from(lo[a])) * scale[a]).clamp(0.0, 1023.0) as u32
+                    };
+                    (u64::from(morton3(cell(0), cell(1), cell(2))) << 32) | i as u64
+                })
+                .collect();
+            sort_by_high_half(&mut keys);
+            let mut chunks: Vec<Vec<u32>> = Vec::with_capacity(k);
+            let (base, extra) = (n / k, n % k);
+            let mut at = 0;
+            for c in 0..k {
+                let len = base + usize::from(c < extra);
+                chunks.push(keys[at..at + len].iter().map(|&x| x as u32).collect());
+                at += len;
+            }
+            chunks
+        },
+        || Weld::exact(&mesh.positions),
+    );
     // Border points: used by triangles of two chunks or more.
-    let weld = Weld::exact(&mesh.positions);
     let mut owner = vec![u32::MAX; weld.representative.len()];
     let mut shared = vec![false; weld.representative.len()];
     for (c, tris) in chunks.iter().enumerate() {

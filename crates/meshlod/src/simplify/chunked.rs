@@ -39,12 +39,13 @@
 //! more, [`chunk_keep`] and [`border_keep`]).
 
 use super::{
-    decimate_mesh, refine, thread_pool, Decimated, Method, Passes, Phases, Piece, Placement,
-    Report, Simplified, SimplifyError, SimplifyOptions,
+    decimate_mesh, refine, refine_with, thread_pool, Decimated, Method, Passes, Phases, Piece,
+    Placement, Report, Simplified, SimplifyError, SimplifyOptions,
 };
 use crate::decimate::{NoObserver, Observer, Outcome, StopReason};
 use crate::mesh::partition::{partition, Partition};
 use crate::mesh::{Distance, Mesh};
+use crate::metrics::bvh::Bvh;
 use rayon::prelude::*;
 use std::collections::HashMap;
 use std::time::Instant;
@@ -140,7 +141,11 @@ pub(super) fn simplify_chunked(
     let diag = mesh.bbox_diagonal();
     observer.started(n, target);
     let t_build = Instant::now();
-    let part = partition(mesh, chunk_triangles);
+    let pool = thread_pool(options.threads)?;
+    let part = match &pool {
+        Some(p) => p.install(|| partition(mesh, chunk_triangles)),
+        None => partition(mesh, chunk_triangles),
+    };
     let t_chunks = Instant::now();
     // Distances resolved against the whole mesh's diagonal, not a chunk's.
     let mut inner = options.clone();
@@ -150,7 +155,6 @@ pub(super) fn simplify_chunked(
     inner.ratio = None;
     inner.target_triangles = None;
     let ratio = if n > 0 { target as f64 / n as f64 } else { 0.0 };
-    let pool = thread_pool(options.threads)?;
     // The chunks stop at the cost where the sampled chunks, run to the final
     // ratio, kept `chunk_keep` of their triangles (and never below the final
     // ratio): a rough chunk keeps more triangles than a flat one, as in the
@@ -186,14 +190,22 @@ pub(super) fn simplify_chunked(
     }
     observer.progress(merged.triangles.len());
     let t_global = Instant::now();
-    let d = decimate_mesh(
-        &merged,
-        &inner,
-        target,
-        None,
-        false,
-        &mut Continue(observer),
-    );
+    // The repair's tree over the input depends on the input alone: with a second
+    // thread it is built while the global pass runs on this one.
+    let overlap = options.facing_repair && options.threads != Some(1);
+    let (d, tree) = std::thread::scope(|s| {
+        let building =
+            overlap.then(|| s.spawn(|| Bvh::build_morton(&mesh.positions, &mesh.triangles)));
+        let d = decimate_mesh(
+            &merged,
+            &inner,
+            target,
+            None,
+            false,
+            &mut Continue(observer),
+        );
+        (d, building.and_then(|b| b.join().ok()))
+    });
     drop(merged);
     let Decimated {
         mut out,
@@ -214,7 +226,20 @@ pub(super) fn simplify_chunked(
     // The global pass's freed memory too, before the repair builds its tree over
     // the input, where the run peaks (docs/methods/qem.md, "Sampled pieces").
     release_free_memory();
-    let (_, facing) = refine(mesh, options, &mut out, &vertex_source, None, passes, diag);
+    let (_, facing) = match &tree {
+        Some(tree) => refine_with(
+            mesh,
+            options,
+            &mut out,
+            &vertex_source,
+            None,
+            passes,
+            diag,
+            Some(tree),
+        ),
+        None => refine(mesh, options, &mut out, &vertex_source, None, passes, diag),
+    };
+    drop(tree);
     let phases = Phases {
         build: (t_chunks - t_build).as_secs_f64() + global.build,
         decimate: (t_merge - t_chunks).as_secs_f64() + global.decimate,

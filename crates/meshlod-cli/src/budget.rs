@@ -26,6 +26,9 @@ pub struct Curve {
     /// `(largest error so far in scene units, triangles left)` after each
     /// collapse: the errors never fall, the counts never rise.
     pub steps: Vec<(f64, usize)>,
+    /// The run told when it started (a run that never does, such as clustering,
+    /// records nothing to go by).
+    pub recorded: bool,
 }
 
 impl Curve {
@@ -39,6 +42,12 @@ impl Curve {
         } else {
             self.steps[n - 1].1
         }
+    }
+
+    /// Whether the run was recorded from its start.
+    #[must_use]
+    pub fn recorded(&self) -> bool {
+        self.recorded
     }
 
     /// The fewest triangles the run reached.
@@ -77,45 +86,64 @@ impl CurveRecorder<'_> {
     pub fn inner(&mut self) -> &mut dyn Observer {
         self.inner
     }
+
+    /// What was recorded.
+    #[must_use]
+    pub fn into_curve(self) -> Curve {
+        self.curve
+    }
 }
 
 /// Runs `job(0..n)` on up to `threads` threads (each taking the next job when
-/// done), the results in job order; the first error by job order, if any.
+/// done), the results in job order. After a job fails no new job starts; a
+/// panicking job panics the caller.
 ///
 /// # Errors
-/// The first job's error.
+/// The error of the failed job first in job order.
 pub fn run_parallel<T: Send>(
     n: usize,
     threads: usize,
     job: impl Fn(usize) -> anyhow::Result<T> + Sync,
 ) -> anyhow::Result<Vec<T>> {
-    use std::sync::atomic::{AtomicUsize, Ordering};
+    use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
     use std::sync::Mutex;
     let next = AtomicUsize::new(0);
+    let failed = AtomicBool::new(false);
     let slots: Vec<Mutex<Option<anyhow::Result<T>>>> = (0..n).map(|_| Mutex::new(None)).collect();
     std::thread::scope(|s| {
         for _ in 0..threads.clamp(1, n.max(1)) {
             s.spawn(|| loop {
+                if failed.load(Ordering::Relaxed) {
+                    break;
+                }
                 let j = next.fetch_add(1, Ordering::Relaxed);
                 if j >= n {
                     break;
                 }
                 let r = job(j);
+                if r.is_err() {
+                    failed.store(true, Ordering::Relaxed);
+                }
                 if let Ok(mut slot) = slots[j].lock() {
                     *slot = Some(r);
                 }
             });
         }
     });
-    slots
-        .into_iter()
-        .map(|m| {
-            m.into_inner()
-                .ok()
-                .flatten()
-                .unwrap_or_else(|| Err(anyhow::anyhow!("a part's thread stopped")))
-        })
-        .collect()
+    let mut out = Vec::with_capacity(n);
+    for m in slots {
+        match m.into_inner().ok().flatten() {
+            Some(r) => out.push(r?),
+            // Not started: a job before it failed, whose error comes first
+            // unless an earlier one's does.
+            None => continue,
+        }
+    }
+    if out.len() < n {
+        // Unreachable without a failure, which `?` returned above.
+        anyhow::bail!("{} of {n} parts did not run", n - out.len());
+    }
+    Ok(out)
 }
 
 impl Observer for CurveRecorder<'_> {
@@ -126,6 +154,7 @@ impl Observer for CurveRecorder<'_> {
         self.curve = Curve {
             start: triangles,
             steps: Vec::new(),
+            recorded: true,
         };
         self.inner.started(triangles, target);
     }
@@ -142,6 +171,12 @@ impl Observer for CurveRecorder<'_> {
         self.inner.collapsed(record);
     }
     fn progress(&mut self, triangles: usize) {
+        // Triangles can also go without a collapse (a separate part removed
+        // whole): the count follows, at the error reached so far.
+        if self.curve.recorded && triangles < self.triangles {
+            self.triangles = triangles;
+            self.curve.steps.push((self.largest, triangles));
+        }
         self.inner.progress(triangles);
     }
 }
@@ -189,6 +224,8 @@ pub fn split(curves: &[Curve], instances: &[usize], want: usize) -> Option<(f64,
     } else {
         errors[i - 1]
     };
+    // The room left goes to the parts in index order (deterministic; a part
+    // earlier in the scene keeps the few extra triangles).
     let mut slack = want - total(e);
     for ((c, n), &k) in curves.iter().zip(&mut counts).zip(instances) {
         if slack == 0 {
@@ -219,6 +256,7 @@ mod tests {
         Curve {
             start,
             steps: steps.to_vec(),
+            recorded: true,
         }
     }
 
@@ -262,6 +300,52 @@ mod tests {
         // Drawn twice, it may only take back whole pairs of triangles.
         let (e, counts) = split(&[other, c], &[1, 2], 108).unwrap();
         assert_eq!((e, counts), (0.9, vec![8, 50]));
+    }
+
+    #[test]
+    fn jobs_come_back_in_order_and_the_first_failure_is_reported() {
+        for threads in [1, 2, 5] {
+            let squares = run_parallel(7, threads, |j| Ok(j * j)).unwrap();
+            assert_eq!(squares, vec![0, 1, 4, 9, 16, 25, 36], "{threads} threads");
+            let failed = run_parallel(7, threads, |j| {
+                if j >= 3 {
+                    anyhow::bail!("job {j} failed")
+                }
+                Ok(j)
+            });
+            assert_eq!(failed.unwrap_err().to_string(), "job 3 failed");
+        }
+        assert!(run_parallel(0, 2, Ok).unwrap().is_empty());
+    }
+
+    /// Collapses and removals without a collapse (a part removed whole) both
+    /// count; a recorder whose run never started records nothing to go by.
+    #[test]
+    fn the_recorder_follows_collapses_and_removals() {
+        let mut none = meshlod::decimate::NoObserver;
+        let mut rec = CurveRecorder::new(&mut none, 2.0);
+        rec.progress(5);
+        assert!(!rec.curve.recorded());
+        rec.started(10, 0);
+        rec.collapsed(&CollapseRecord {
+            removed: 1,
+            kept: 0,
+            removed_position: [0.0; 3],
+            kept_old_position: [0.0; 3],
+            position: [0.0; 3],
+            removed_triangles: [0, 1],
+            removed_count: 2,
+            apexes: [2, 3],
+            non_edge: false,
+            closed_hole: meshlod::collapse::DEAD,
+            cost: 0.0,
+            error: 0.25,
+        });
+        rec.progress(4);
+        let c = rec.into_curve();
+        assert!(c.recorded());
+        assert_eq!(c.steps, vec![(0.5, 8), (0.5, 4)]);
+        assert_eq!(c.floor(), 4);
     }
 
     #[test]

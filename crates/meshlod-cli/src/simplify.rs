@@ -741,7 +741,8 @@ pub fn run(args: &SimplifyArgs) -> Result<()> {
 
     let flat_diag = scene.flattened().bbox_diagonal();
     let (out_scene, agg) = if per_part {
-        simplify_parts(&scene, &opts, flat_diag, &mut progress)?
+        simplify_parts(&scene, &opts, flat_diag, &mut progress)
+            .with_context(|| format!("{}", args.input.display()))?
     } else {
         let mesh = scene.flattened();
         let s = simplify_observed(&mesh, &opts, &mut progress)
@@ -1110,10 +1111,7 @@ impl Aggregate {
         self.vertices_out += instances * r.vertices_out;
         self.error_absolute = self.error_absolute.max(scale * r.error_absolute);
         self.seconds += r.seconds;
-        self.phases.build += r.phases.build;
-        self.phases.decimate += r.phases.decimate;
-        self.phases.output += r.phases.output;
-        self.phases.refine += r.phases.refine;
+        add_steps(&mut self.phases, &r.phases);
         self.collapses += r.collapses;
         self.non_edge += r.non_edge_contractions;
         self.degenerate += r.degenerate_removed;
@@ -1159,6 +1157,7 @@ fn simplify_parts(
     diag: f64,
     progress: &mut Progress,
 ) -> Result<(Scene, Aggregate)> {
+    let started = Instant::now();
     let total: usize = scene
         .parts
         .iter()
@@ -1205,81 +1204,105 @@ fn simplify_parts(
         .map(|i| part_opts.target_for(scene.parts[i].mesh.triangles.len()) * instances(i))
         .sum();
     let drawn = (0..n_parts).filter(|&i| instances(i) > 0).count();
-    let by_error_wanted = opts.max_error.is_none() && drawn > 1 && want < total;
-    // Several parts run at once, the bar advancing part by part; a single part
-    // runs alone with the bar following its collapses.
+    // The probes run every part to 0 triangles: their curves need every collapse
+    // (edge collapses on parts that run whole, not in chunks).
+    let mut probe = part_opts.clone();
+    probe.ratio = None;
+    probe.target_triangles = Some(0);
+    let by_error_wanted = opts.max_error.is_none()
+        && drawn > 1
+        && want < total
+        && scene
+            .parts
+            .iter()
+            .all(|p| meshlod::simplify::observes_collapses(&p.mesh, &probe));
     let threads = opts
         .threads
         .unwrap_or_else(|| std::thread::available_parallelism().map_or(1, usize::from));
+    // The bar counts each pass over the parts as their triangles: the probes and
+    // the runs to the counts share one length, split in proportion to size.
     let bar = progress.bar.clone();
+    let work: usize = scene.parts.iter().map(|p| p.mesh.triangles.len()).sum();
     if let Some(b) = &bar {
         let passes = if by_error_wanted { 2 } else { 1 };
-        let work: usize = scene.parts.iter().map(|p| p.mesh.triangles.len()).sum();
         b.set_length((passes * work) as u64);
+        b.set_position(0);
     }
+    let size = |i: usize| scene.parts[i].mesh.triangles.len();
+    // Every run's time, once (the report's phase times are their sums).
+    let mut spent = Spent::default();
     let run_all = |jobs: &[(usize, SimplifyOptions)],
-                   progress: &mut Progress,
+                   units: u64,
                    curves: Option<&mut Vec<crate::budget::Curve>>|
      -> Result<Vec<meshlod::simplify::Simplified>> {
         let recording = curves.is_some();
-        let one = |i: usize, o: &SimplifyOptions, obs: &mut dyn Observer| {
-            let mut rec = crate::budget::CurveRecorder::new(obs, part_scale(&scene.parts[i]));
+        let sizes: u64 = jobs.iter().map(|(i, _)| size(*i) as u64).sum();
+        let share = |i: usize| (units * size(i) as u64).checked_div(sizes).unwrap_or(0);
+        let one = |i: usize, o: &SimplifyOptions| {
+            let mut shown = PartBar::new(bar.as_ref(), share(i));
+            let mut rec =
+                crate::budget::CurveRecorder::new(&mut shown, part_scale(&scene.parts[i]));
             let r = if recording {
                 run(i, o, &mut rec)
             } else {
                 run(i, o, rec.inner())
             }?;
-            Ok((r, rec.curve))
+            let curve = rec.into_curve();
+            shown.finish();
+            Ok((r, curve))
         };
-        let done: Vec<(meshlod::simplify::Simplified, crate::budget::Curve)> =
-            if jobs.len() == 1 || threads == 1 {
-                let mut v = Vec::with_capacity(jobs.len());
-                for (i, o) in jobs {
-                    v.push(one(*i, o, progress)?);
-                }
-                v
-            } else {
-                // The largest parts first, so that no large one starts last.
-                let size = |j: usize| scene.parts[jobs[j].0].mesh.triangles.len();
-                let mut order: Vec<usize> = (0..jobs.len()).collect();
-                order.sort_by_key(|&j| std::cmp::Reverse(size(j)));
-                let ran = crate::budget::run_parallel(jobs.len(), threads, |k| {
-                    let (i, o) = &jobs[order[k]];
-                    let r = one(*i, o, &mut meshlod::decimate::NoObserver);
-                    if let Some(b) = &bar {
-                        b.inc(size(order[k]) as u64);
-                    }
-                    r
-                })?;
-                let mut v: Vec<Option<_>> = (0..jobs.len()).map(|_| None).collect();
-                for (k, r) in ran.into_iter().enumerate() {
-                    v[order[k]] = Some(r);
-                }
-                v.into_iter().flatten().collect()
-            };
-        let (results, c): (Vec<_>, Vec<_>) = done.into_iter().unzip();
+        // A part that runs in chunks uses every thread itself, as does a single
+        // part; the others run at once, one thread each, the largest first.
+        let alone = |(i, o): &(usize, SimplifyOptions)| {
+            threads == 1
+                || jobs.len() == 1
+                || meshlod::simplify::runs_in_chunks(&scene.parts[*i].mesh, o)
+        };
+        let mut done: Vec<Option<_>> = (0..jobs.len()).map(|_| None).collect();
+        for (j, job) in jobs.iter().enumerate() {
+            if alone(job) {
+                done[j] = Some(one(job.0, &job.1)?);
+            }
+        }
+        let mut together: Vec<usize> = (0..jobs.len()).filter(|&j| done[j].is_none()).collect();
+        together.sort_by_key(|&j| std::cmp::Reverse(size(jobs[j].0)));
+        let ran = crate::budget::run_parallel(together.len(), threads, |k| {
+            let (i, o) = &jobs[together[k]];
+            let mut o = o.clone();
+            o.threads = Some(1);
+            one(*i, &o)
+        })?;
+        for (k, r) in ran.into_iter().enumerate() {
+            done[together[k]] = Some(r);
+        }
+        let (results, c): (Vec<_>, Vec<_>) = done.into_iter().flatten().unzip();
         if let Some(curves) = curves {
             *curves = c;
         }
         Ok(results)
     };
     let mut results = Vec::with_capacity(n_parts);
-    // The runs whose results were replaced: their time still counts.
-    let mut earlier = Spent::default();
     // With the budget split by error: that error (scene units) and the parts
     // left as far as they go.
     let mut by_error: Option<(f64, usize)> = None;
     if by_error_wanted {
         // Split the budget by error (`budget`): every part as far as it goes
         // first, recording its error curve, then again to its count.
-        let mut o = part_opts.clone();
-        o.ratio = None;
-        o.target_triangles = Some(0);
-        let jobs: Vec<_> = (0..n_parts).map(|i| (i, o.clone())).collect();
+        let jobs: Vec<_> = (0..n_parts).map(|i| (i, probe.clone())).collect();
         let mut curves = Vec::new();
-        let probes = run_all(&jobs, progress, Some(&mut curves))?;
+        let probes = run_all(&jobs, work as u64, Some(&mut curves))?;
+        probes.iter().for_each(|p| spent.add(&p.report));
+        // A curve that missed collapses (a run that did not report them all)
+        // would misplace the budget: then the split by size is used.
+        let whole = curves
+            .iter()
+            .zip(&probes)
+            .all(|(c, p)| c.recorded() && c.floor() == p.report.triangles_out);
         let k: Vec<usize> = (0..n_parts).map(instances).collect();
-        if let Some((e, counts)) = crate::budget::split(&curves, &k, want) {
+        let split = whole
+            .then(|| crate::budget::split(&curves, &k, want))
+            .flatten();
+        if let Some((e, counts)) = split {
             let again: Vec<_> = (0..n_parts)
                 .filter(|&i| counts[i] > probes[i].report.triangles_out)
                 .map(|i| {
@@ -1289,13 +1312,14 @@ fn simplify_parts(
                     (i, o)
                 })
                 .collect();
-            let mut rerun = run_all(&again, progress, None)?.into_iter();
+            let rerun = run_all(&again, work as u64, None)?;
+            rerun.iter().for_each(|r| spent.add(&r.report));
+            let mut rerun = rerun.into_iter();
             let mut at_floor = 0;
             let mut next = again.iter().map(|(i, _)| *i).peekable();
             for (i, probe) in probes.into_iter().enumerate() {
                 if next.peek() == Some(&i) {
                     next.next();
-                    earlier.add(&probe.report);
                     results.extend(rerun.next());
                 } else {
                     at_floor += usize::from(k[i] > 0);
@@ -1303,13 +1327,17 @@ fn simplify_parts(
                 }
             }
             by_error = Some((e, at_floor));
-        } else {
-            probes.iter().for_each(|p| earlier.add(&p.report));
         }
     }
     if results.is_empty() {
         let jobs: Vec<_> = (0..n_parts).map(|i| (i, part_opts.clone())).collect();
-        results = run_all(&jobs, progress, None)?;
+        if by_error_wanted {
+            if let Some(b) = &bar {
+                b.inc_length(work as u64);
+            }
+        }
+        results = run_all(&jobs, work as u64, None)?;
+        results.iter().for_each(|r| spent.add(&r.report));
     }
     // Parts that cannot reach their share (a bolt of 12 triangles, a part whose
     // holes all stay) leave the scene above its target: the parts that reached
@@ -1338,18 +1366,27 @@ fn simplify_parts(
                 break;
             }
             let keep = (room.saturating_sub(have - want)) as f64 / room as f64;
-            for i in slack {
-                let n = results[i].report.triangles_out;
-                let target = ((n as f64 * keep).floor() as usize).max(1);
-                if target >= n {
-                    continue;
-                }
-                let mut o = part_opts.clone();
-                o.ratio = None;
-                o.target_triangles = Some(target);
-                earlier.add(&results[i].report);
-                results[i] = run(i, &o, progress)?;
-                squeezed[i] = true;
+            let jobs: Vec<_> = slack
+                .into_iter()
+                .filter_map(|i| {
+                    let n = results[i].report.triangles_out;
+                    let target = ((n as f64 * keep).floor() as usize).max(1);
+                    (target < n).then(|| {
+                        let mut o = part_opts.clone();
+                        o.ratio = None;
+                        o.target_triangles = Some(target);
+                        (i, o)
+                    })
+                })
+                .collect();
+            let units: u64 = jobs.iter().map(|(i, _)| size(*i) as u64).sum();
+            if let Some(b) = &bar {
+                b.inc_length(units);
+            }
+            for ((i, _), r) in jobs.iter().zip(run_all(&jobs, units, None)?) {
+                spent.add(&r.report);
+                results[*i] = r;
+                squeezed[*i] = true;
             }
         }
     }
@@ -1360,7 +1397,6 @@ fn simplify_parts(
     if have > want && squeezed.contains(&true) {
         for (i, s) in first.into_iter().enumerate() {
             if squeezed[i] {
-                earlier.add(&results[i].report);
                 results[i] = s;
             }
         }
@@ -1388,11 +1424,10 @@ fn simplify_parts(
         }
     }
     agg.target_triangles = want;
-    agg.seconds += earlier.seconds;
-    agg.phases.build += earlier.phases.build;
-    agg.phases.decimate += earlier.phases.decimate;
-    agg.phases.output += earlier.phases.output;
-    agg.phases.refine += earlier.phases.refine;
+    // The parts' runs (some at once on several threads): the wall time, and
+    // each phase summed over every run.
+    agg.seconds = started.elapsed().as_secs_f64();
+    agg.phases = spent.phases;
     let more = squeezed.iter().filter(|&&q| q).count();
     let parts = |n: usize| {
         if n == 1 {
@@ -1403,7 +1438,7 @@ fn simplify_parts(
     };
     let (stopped, others) = (parts(short), parts(more));
     match first_other {
-        _ if by_error.is_some() && more == 0 && agg.triangles_out <= want => {
+        _ if by_error.is_some() && agg.triangles_out <= want => {
             let (e, at_floor) = by_error.unwrap_or_default();
             agg.stop_reason = StopReason::TargetReached;
             let limit = if e.is_finite() {
@@ -1416,10 +1451,15 @@ fn simplify_parts(
             };
             agg.stop_detail = format!(
                 "the scene reached its target ({} triangles for {want}), its budget split \
-                 between the parts by error{limit}{}",
+                 between the parts by error{limit}{}{}",
                 agg.triangles_out,
                 if at_floor > 0 {
                     format!(", {} simplified as far as they go", parts(at_floor))
+                } else {
+                    String::new()
+                },
+                if more > 0 {
+                    format!(", {others} simplified further to make up for parts above their count")
                 } else {
                     String::new()
                 }
@@ -1463,20 +1503,75 @@ fn simplify_parts(
     Ok((out, agg))
 }
 
-/// Time spent on runs whose results were replaced.
+/// The phase times of every run of a scene's parts, each counted once.
 #[derive(Default)]
 struct Spent {
-    seconds: f64,
     phases: Steps,
 }
 
 impl Spent {
     fn add(&mut self, r: &Report) {
-        self.seconds += r.seconds;
-        self.phases.build += r.phases.build;
-        self.phases.decimate += r.phases.decimate;
-        self.phases.output += r.phases.output;
-        self.phases.refine += r.phases.refine;
+        add_steps(&mut self.phases, &r.phases);
+    }
+}
+
+/// Adds one run's phase times to a sum.
+fn add_steps(sum: &mut Steps, r: &Steps) {
+    sum.build += r.build;
+    sum.decimate += r.decimate;
+    sum.output += r.output;
+    sum.refine += r.refine;
+}
+
+/// A part's share of the scene's progress bar: `units`, advanced as the part
+/// goes from its first triangle count toward its target (several parts may
+/// advance the bar at once).
+struct PartBar<'a> {
+    bar: Option<&'a ProgressBar>,
+    units: u64,
+    start: usize,
+    target: usize,
+    shown: u64,
+}
+
+impl<'a> PartBar<'a> {
+    fn new(bar: Option<&'a ProgressBar>, units: u64) -> Self {
+        Self {
+            bar,
+            units,
+            start: 0,
+            target: 0,
+            shown: 0,
+        }
+    }
+
+    fn show(&mut self, upto: u64) {
+        let upto = upto.min(self.units);
+        if let Some(b) = self.bar {
+            if upto > self.shown {
+                b.inc(upto - self.shown);
+                self.shown = upto;
+            }
+        }
+    }
+
+    /// The part is done: its whole share shown.
+    fn finish(&mut self) {
+        self.show(self.units);
+    }
+}
+
+impl Observer for PartBar<'_> {
+    fn started(&mut self, triangles: usize, target: usize) {
+        self.start = triangles;
+        self.target = target.min(triangles);
+    }
+    fn progress(&mut self, triangles: usize) {
+        let span = self.start - self.target;
+        if span > 0 {
+            let gone = self.start.saturating_sub(triangles).min(span);
+            self.show((self.units as f64 * gone as f64 / span as f64) as u64);
+        }
     }
 }
 

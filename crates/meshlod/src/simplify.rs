@@ -833,6 +833,25 @@ pub fn simplify(mesh: &Mesh, options: &SimplifyOptions) -> Result<(Mesh, Report)
     Ok((s.mesh, s.report))
 }
 
+/// Whether [`simplify_observed`] would hand `observer` every collapse it performs
+/// ([`Observer::collapsed`], in order) for this mesh and these options: edge
+/// collapses (QEM, Melax) on a mesh small enough to run whole. Clustering and
+/// vertex removal do not collapse edges, and a mesh run in chunks
+/// ([`SimplifyOptions::chunks`], from about a million triangles) reports only its
+/// progress, since its chunks collapse at once on several threads.
+#[must_use]
+pub fn observes_collapses(mesh: &Mesh, options: &SimplifyOptions) -> bool {
+    matches!(options.method, Method::Qem | Method::Melax) && !runs_in_chunks(mesh, options)
+}
+
+/// Whether [`simplify_observed`] would simplify this mesh in chunks
+/// ([`SimplifyOptions::chunks`]: QEM on about a million triangles and more, on
+/// every thread of [`SimplifyOptions::threads`]).
+#[must_use]
+pub fn runs_in_chunks(mesh: &Mesh, options: &SimplifyOptions) -> bool {
+    options.method == Method::Qem && chunked::chunking(mesh, options).is_some()
+}
+
 /// [`simplify`] with an [`Observer`] (progress, collapse recording) and the vertex
 /// provenance.
 ///

@@ -206,7 +206,11 @@ pub(super) fn simplify_chunked(
             false,
             &mut Continue(observer),
         );
-        (d, building.and_then(|b| b.join().ok()))
+        let tree = building.map(|b| {
+            b.join()
+                .unwrap_or_else(|panic| std::panic::resume_unwind(panic))
+        });
+        (d, tree)
     });
     drop(merged);
     let Decimated {
@@ -285,8 +289,9 @@ fn par_map<T: Sync, R: Send>(
 /// global pass. The tree (about 70 bytes per input triangle) then adds to the
 /// global pass's structures instead of following them: on the 1M-triangle grid
 /// (4 chunks) that took the peak from 119 to 145–159 bytes per input triangle,
-/// above the 150 the project allows, for 5–7% of the time; from 4.2M triangles
-/// (16 chunks) the peak stays 95–118.
+/// above the 150 the project allows, for 5–7% of the time; on the 2.1M grid (8
+/// chunks) it stays 111 at 10% and 89–90 at 1% (97–105 and 94–98 without), and
+/// from 4.2M triangles (16 chunks) 95–118.
 const OVERLAP_FROM: usize = 8;
 
 /// A piece of every `SAMPLE_STRIDE`-th chunk is run to the final ratio first, to

@@ -172,14 +172,15 @@ fn a_view_direction_coarsens_what_is_out_of_view_and_keeps_the_cut_closed() {
     // direction in view. Only groups wholly out of view can be coarsened (their
     // spheres enclose their clusters'), so the narrow view far away gains, the
     // others little or nothing. Culling (`visible`) keeps exactly the clusters whose
-    // spheres reach into the view.
+    // own triangles' spheres reach into the view.
     let mut checked = 0;
     for (camera, target, fov, fewer) in [
         ([0.0, 0.0, 1.3], [0.3, 0.0, 0.95], 40.0, false),
         ([0.0, 0.0, 1.3], [0.0, 0.0, 1.0], 60.0, false),
         ([1.2, 0.6, 0.0], [0.8, 0.6, 0.0], 90.0, false),
         ([0.0, 0.0, 3.0], [0.6, 0.0, 0.8], 20.0, false),
-        ([0.0, 0.0, 3.0], [0.0, 0.0, 0.0], 5.0, true),
+        ([0.0, 0.0, 3.0], [0.0, 0.0, 0.0], 5.0, false),
+        ([0.0, 0.0, 2.0], [0.0, 0.0, 0.0], 5.0, true),
         ([0.0, 0.0, 6.0], [0.0, 0.0, 0.0], 60.0, false),
     ] {
         let everywhere = DagView::new(
@@ -236,7 +237,7 @@ fn a_view_direction_coarsens_what_is_out_of_view_and_keeps_the_cut_closed() {
             cut.len()
         );
         for &c in &cut {
-            let s = &dag.clusters[c].sphere;
+            let s = &dag.clusters[c].bounds(&dag.positions);
             let rel: Vec<f64> = (0..3).map(|k| s.center[k] - camera[k]).collect();
             let along = (0..3).map(|k| rel[k] * axis[k] / n).sum::<f64>();
             let length = rel.iter().map(|x| x * x).sum::<f64>().sqrt();

@@ -359,38 +359,209 @@ impl Dag {
     }
 }
 
-/// Splits `tris` (indices into `positions`) into runs of at most `size` triangles
-/// along the Morton order of their centroids (within `tris`' own box), each with
-/// its triangles' `groups` (when there are: one per triangle, else empty).
+/// Splits `tris` (indices into `positions`) into clusters of at most `size`
+/// triangles, each with its triangles' `groups` (when there are: one per
+/// triangle, else empty).
+///
+/// Clusters are grown over shared vertices, as meshlet builders grow theirs: a
+/// cluster starts at the first free triangle in the Morton order of the
+/// centroids and takes, one at a time, the free triangle with the most vertices
+/// already in it (closing a notch before extending the border), the nearest to
+/// its seed on a tie; when its part of the surface runs out it goes on from
+/// the next free triangle in Morton order. Runs of the Morton order alone make
+/// strips on a height field (the curve follows the contour lines, and at 10 bits
+/// an axis many triangles share a key): on the 262,144-triangle terrain they
+/// held 118 vertices per 128 triangles, against 92 for these (81 for a square).
 fn split(
     positions: &[[f32; 3]],
     tris: &[[u32; 3]],
     groups: &[u32],
     size: usize,
 ) -> Vec<(Vec<[u32; 3]>, Vec<u32>)> {
-    let centroid = |t: &[u32; 3]| -> [f64; 3] {
-        std::array::from_fn(|k| {
-            t.iter()
-                .map(|&v| f64::from(positions[v as usize][k]))
-                .sum::<f64>()
-                / 3.0
+    let n = tris.len();
+    let size = size.max(1);
+    let centroids: Vec<[f64; 3]> = tris
+        .iter()
+        .map(|t| {
+            std::array::from_fn(|k| {
+                t.iter()
+                    .map(|&v| f64::from(positions[v as usize][k]))
+                    .sum::<f64>()
+                    / 3.0
+            })
         })
-    };
-    let keys = morton_keys(&tris.iter().map(centroid).collect::<Vec<_>>());
-    let mut order: Vec<usize> = (0..tris.len()).collect();
+        .collect();
+    let keys = morton_keys(&centroids);
+    let mut order: Vec<usize> = (0..n).collect();
     order.sort_by_key(|&i| (keys[i], i));
-    let grouped = groups.len() == tris.len();
-    order
-        .chunks(size.max(1))
-        .map(|c| {
-            let g = if grouped {
-                c.iter().map(|&i| groups[i]).collect()
-            } else {
-                Vec::new()
+    // The triangles' vertices as local ids, and each local vertex's triangles.
+    // (A table over every position for the input, which uses most of them; a
+    // sorted list searched for a group's few.)
+    let (local, nv): (Vec<[usize; 3]>, usize) = if positions.len() <= 4 * n {
+        let mut id = vec![usize::MAX; positions.len()];
+        let mut nv = 0;
+        let local = tris
+            .iter()
+            .map(|t| {
+                t.map(|v| {
+                    let slot = &mut id[v as usize];
+                    if *slot == usize::MAX {
+                        *slot = nv;
+                        nv += 1;
+                    }
+                    *slot
+                })
+            })
+            .collect();
+        (local, nv)
+    } else {
+        let mut vertices: Vec<u32> = tris.iter().flatten().copied().collect();
+        vertices.sort_unstable();
+        vertices.dedup();
+        let local = tris
+            .iter()
+            .map(|t| t.map(|v| vertices.binary_search(&v).unwrap_or(0)))
+            .collect();
+        (local, vertices.len())
+    };
+    let mut start = vec![0usize; nv + 1];
+    for t in &local {
+        for &v in t {
+            start[v + 1] += 1;
+        }
+    }
+    for v in 0..nv {
+        start[v + 1] += start[v];
+    }
+    let mut fill = start.clone();
+    let mut around = vec![0usize; 3 * n];
+    for (t, corners) in local.iter().enumerate() {
+        for &v in corners {
+            around[fill[v]] = t;
+            fill[v] += 1;
+        }
+    }
+    drop(fill);
+    let mut grow = Grower {
+        local: &local,
+        centroids: &centroids,
+        start: &start,
+        around: &around,
+        cluster_of: vec![FREE; n],
+        vertex_in: vec![FREE; nv],
+        queued: vec![FREE; n],
+        inside: vec![0; n],
+        id: 0,
+        members: Vec::with_capacity(size),
+        candidates: BinaryHeap::new(),
+        origin: [0.0; 3],
+    };
+    let grouped = groups.len() == n;
+    let mut out = Vec::with_capacity(n.div_ceil(size));
+    let mut next = 0;
+    while next < n {
+        let seed = order[next];
+        next += 1;
+        if grow.cluster_of[seed] != FREE {
+            continue;
+        }
+        grow.take(seed);
+        while grow.members.len() < size {
+            let t = match grow.best() {
+                Some(u) => u,
+                None => {
+                    // This part of the surface is used up: on from the next
+                    // free triangle in Morton order.
+                    while next < n && grow.cluster_of[order[next]] != FREE {
+                        next += 1;
+                    }
+                    if next == n {
+                        break;
+                    }
+                    order[next]
+                }
             };
-            (c.iter().map(|&i| tris[i]).collect(), g)
-        })
-        .collect()
+            grow.take(t);
+        }
+        let members = std::mem::take(&mut grow.members);
+        let g = if grouped {
+            members.iter().map(|&t| groups[t]).collect()
+        } else {
+            Vec::new()
+        };
+        out.push((members.iter().map(|&t| tris[t]).collect(), g));
+        grow.candidates.clear();
+        grow.id += 1;
+    }
+    out
+}
+
+/// A free slot of [`Grower`]'s per-triangle and per-vertex marks.
+const FREE: u32 = u32::MAX;
+
+/// The state of [`split`]'s cluster growing: per triangle its cluster and
+/// whether the current cluster queued it, per vertex the last cluster that
+/// holds it; the current cluster's triangles, its candidates (a heap by
+/// vertices inside, then distance to the seed) and its seed's centroid.
+struct Grower<'a> {
+    local: &'a [[usize; 3]],
+    centroids: &'a [[f64; 3]],
+    start: &'a [usize],
+    around: &'a [usize],
+    cluster_of: Vec<u32>,
+    vertex_in: Vec<u32>,
+    queued: Vec<u32>,
+    /// Per queued triangle, its vertices already in the current cluster.
+    inside: Vec<u8>,
+    id: u32,
+    members: Vec<usize>,
+    candidates: BinaryHeap<(u8, Reverse<u64>, Reverse<usize>)>,
+    origin: [f64; 3],
+}
+
+impl Grower<'_> {
+    /// Puts triangle `t` in the current cluster and queues its free neighbours.
+    fn take(&mut self, t: usize) {
+        if self.members.is_empty() {
+            self.origin = self.centroids[t];
+        }
+        self.cluster_of[t] = self.id;
+        self.members.push(t);
+        for &v in &self.local[t] {
+            if self.vertex_in[v] == self.id {
+                continue;
+            }
+            self.vertex_in[v] = self.id;
+            for &u in &self.around[self.start[v]..self.start[v + 1]] {
+                if self.cluster_of[u] != FREE {
+                    continue;
+                }
+                if self.queued[u] != self.id {
+                    self.queued[u] = self.id;
+                    self.inside[u] = 0;
+                }
+                self.inside[u] += 1;
+                // Squared distances are non-negative: their bits order as they do.
+                let d: f64 = (0..3)
+                    .map(|k| (self.centroids[u][k] - self.origin[k]).powi(2))
+                    .sum();
+                self.candidates
+                    .push((self.inside[u], Reverse(d.to_bits()), Reverse(u)));
+            }
+        }
+    }
+
+    /// The free candidate with the most vertices in the cluster, the nearest to
+    /// its seed on a tie (then the lower index). Entries are queued again as
+    /// their count grows; older ones are skipped (lazy invalidation).
+    fn best(&mut self) -> Option<usize> {
+        while let Some((inside, _, Reverse(u))) = self.candidates.pop() {
+            if self.cluster_of[u] == FREE && self.queued[u] == self.id && self.inside[u] == inside {
+                return Some(u);
+            }
+        }
+        None
+    }
 }
 
 /// 30-bit Morton keys of `points` in their bounding box.
@@ -1287,4 +1458,74 @@ fn read_cluster(b: &mut Bytes<'_>, np: u64, groups: Option<usize>) -> Result<Clu
         parent_error,
         parent_sphere,
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::mesh::generate;
+
+    /// A hilly ramp (64 × 64 cells, 8,192 triangles): the clusters take every
+    /// triangle once, at most 128 each, and are compact (a square patch of 128
+    /// triangles has 81 vertices; runs of the Morton order follow the ramp's
+    /// contour lines and hold more).
+    ///
+    /// ```text
+    ///   z ↑     _/‾\_/‾‾
+    ///       _/‾             z = 0.8 x + 0.3 sin 9x cos 7y
+    /// ```
+    #[test]
+    fn clusters_are_compact_and_take_every_triangle_once() {
+        let mesh = generate::grid(64, 64, |x, y| {
+            0.8 * x + 0.3 * (9.0 * x).sin() * (7.0 * y).cos()
+        });
+        let parts = split(&mesh.positions, &mesh.triangles, &[], 128);
+        let mut seen = vec![0; mesh.triangles.len()];
+        let index: std::collections::HashMap<[u32; 3], usize> = mesh
+            .triangles
+            .iter()
+            .enumerate()
+            .map(|(i, &t)| (t, i))
+            .collect();
+        let (mut vertices, mut pieces) = (0, 0);
+        for (tris, groups) in &parts {
+            assert!(groups.is_empty());
+            assert!(!tris.is_empty() && tris.len() <= 128);
+            for t in tris {
+                seen[index[t]] += 1;
+            }
+            let mut vs: Vec<u32> = tris.iter().flatten().copied().collect();
+            vs.sort_unstable();
+            vs.dedup();
+            vertices += vs.len();
+            // Its pieces (over shared vertices).
+            let mut reached = vec![false; tris.len()];
+            for first in 0..tris.len() {
+                if reached[first] {
+                    continue;
+                }
+                pieces += 1;
+                reached[first] = true;
+                let mut stack = vec![first];
+                while let Some(a) = stack.pop() {
+                    for b in 0..tris.len() {
+                        if !reached[b] && tris[a].iter().any(|v| tris[b].contains(v)) {
+                            reached[b] = true;
+                            stack.push(b);
+                        }
+                    }
+                }
+            }
+        }
+        assert!(
+            seen.iter().all(|&k| k == 1),
+            "a triangle not used exactly once"
+        );
+        assert_eq!(parts.len(), 64);
+        let per = vertices as f64 / parts.len() as f64;
+        // Runs of the Morton order hold 95.8 here.
+        assert!(per < 90.0, "{per} vertices per cluster");
+        // A cluster whose part of the surface runs out goes on elsewhere.
+        assert!(pieces <= 2 * parts.len(), "{pieces} pieces");
+    }
 }

@@ -377,6 +377,7 @@ fn split(
     tris: &[[u32; 3]],
     groups: &[u32],
     size: usize,
+    weld: bool,
 ) -> Vec<(Vec<[u32; 3]>, Vec<u32>)> {
     let n = tris.len();
     let size = size.max(1);
@@ -395,9 +396,24 @@ fn split(
     let mut order: Vec<usize> = (0..n).collect();
     order.sort_by_key(|&i| (keys[i], i));
     // The triangles' vertices as local ids, and each local vertex's triangles.
-    // (A table over every position for the input, which uses most of them; a
-    // sorted list searched for a group's few.)
-    let (local, nv): (Vec<[usize; 3]>, usize) = if positions.len() <= 4 * n {
+    // With `weld` (attributes split vertices at seams) by position, so that a
+    // cluster grows across seams; else a table over every position for the
+    // input, which uses most of them, or a sorted list searched for a group's few.
+    let (local, nv): (Vec<[usize; 3]>, usize) = if weld {
+        let mut id: std::collections::HashMap<[u32; 3], usize> = Default::default();
+        let local = tris
+            .iter()
+            .map(|t| {
+                t.map(|v| {
+                    // +0.0 turns −0.0 into +0.0: one point, as the exact weld has it.
+                    let key = positions[v as usize].map(|x| (x + 0.0).to_bits());
+                    let next = id.len();
+                    *id.entry(key).or_insert(next)
+                })
+            })
+            .collect();
+        (local, id.len())
+    } else if positions.len() <= 4 * n {
         let mut id = vec![usize::MAX; positions.len()];
         let mut nv = 0;
         let local = tris
@@ -650,7 +666,8 @@ pub fn build_dag(mesh: &Mesh, options: &DagOptions) -> Result<(Dag, DagReport), 
         ..DagReport::default()
     };
     let mut open: Vec<usize> = Vec::new();
-    for (c, g) in split(&dag.positions, &tris, &groups, options.cluster_size) {
+    let weld = !dag.attributes.is_empty();
+    for (c, g) in split(&dag.positions, &tris, &groups, options.cluster_size, weld) {
         let sphere = Sphere::around(c.iter().flatten().map(|&v| dag.positions[v as usize]));
         open.push(dag.clusters.len());
         dag.clusters.push(Cluster {
@@ -695,12 +712,12 @@ fn round(
     options: &DagOptions,
     level: u32,
 ) -> Result<(Vec<usize>, usize, usize), SimplifyError> {
-    let groups = group_clusters(dag, open, options.group_size);
-    // How many groups use each point (a position: with attributes, the vertices
-    // on either side of a seam are one point): the vertices of points used by
-    // two or more groups are locked.
+    // Points (a position: with attributes, the vertices on either side of a
+    // seam are one point) join clusters into groups, and the vertices of points
+    // used by two or more groups are locked.
     let point_of: Option<Vec<u32>> =
         (!dag.attributes.is_empty()).then(|| Weld::exact(&dag.positions).point_of);
+    let groups = group_clusters(dag, open, options.group_size, point_of.as_deref());
     let point = |v: u32| point_of.as_ref().map_or(v, |p| p[v as usize]) as usize;
     let mut owner = vec![u32::MAX; dag.positions.len()];
     let mut shared_point = vec![false; dag.positions.len()];
@@ -762,7 +779,12 @@ fn round(
 /// the grouping is deterministic. On the 1M-triangle terrain this locked 30% of
 /// the first round's group vertices against 33% for groups grown one cluster at
 /// a time from Morton-ordered seeds, and 35–44% in later rounds against 42–60%.
-fn group_clusters(dag: &Dag, open: &[usize], size: usize) -> Vec<Vec<usize>> {
+fn group_clusters(
+    dag: &Dag,
+    open: &[usize],
+    size: usize,
+    point_of: Option<&[u32]>,
+) -> Vec<Vec<usize>> {
     let centers: Vec<[f64; 3]> = open
         .iter()
         .map(|&c| dag.clusters[c].sphere.center)
@@ -778,7 +800,7 @@ fn group_clusters(dag: &Dag, open: &[usize], size: usize) -> Vec<Vec<usize>> {
             .triangles
             .iter()
             .flatten()
-            .copied()
+            .map(|&v| point_of.map_or(v, |p| p[v as usize]))
             .collect();
         vs.sort_unstable();
         vs.dedup();
@@ -1032,7 +1054,14 @@ fn apply_group(
         dag.clusters[c].parent_sphere = sphere;
     }
     let mut made = Vec::new();
-    for (c, g) in split(&dag.positions, &tris, &tri_groups, options.cluster_size) {
+    let weld = !dag.attributes.is_empty();
+    for (c, g) in split(
+        &dag.positions,
+        &tris,
+        &tri_groups,
+        options.cluster_size,
+        weld,
+    ) {
         made.push(dag.clusters.len());
         dag.clusters.push(Cluster {
             level,
@@ -1479,7 +1508,7 @@ mod tests {
         let mesh = generate::grid(64, 64, |x, y| {
             0.8 * x + 0.3 * (9.0 * x).sin() * (7.0 * y).cos()
         });
-        let parts = split(&mesh.positions, &mesh.triangles, &[], 128);
+        let parts = split(&mesh.positions, &mesh.triangles, &[], 128, false);
         let mut seen = vec![0; mesh.triangles.len()];
         let index: std::collections::HashMap<[u32; 3], usize> = mesh
             .triangles

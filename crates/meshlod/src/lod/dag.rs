@@ -4,7 +4,8 @@
 //! dive" (SIGGRAPH 2021 course), which meshoptimizer's `clusterlod` also implements:
 //!
 //! 1. the input (welded) is split into clusters of about [`DagOptions::cluster_size`]
-//!    triangles, contiguous along the Morton order of the triangle centroids;
+//!    triangles, each grown over shared vertices from a seed taken in the Morton
+//!    order of the triangle centroids;
 //! 2. each round, the clusters not yet simplified are put into groups of about
 //!    [`DagOptions::group_size`] clusters (merged smallest first with the neighbour
 //!    sharing the most vertices, Kurita's agglomerative clustering, so that few
@@ -399,29 +400,29 @@ fn split(
     // With `weld` (attributes split vertices at seams) by position, so that a
     // cluster grows across seams; else a table over every position for the
     // input, which uses most of them, or a sorted list searched for a group's few.
-    let (local, nv): (Vec<[usize; 3]>, usize) = if weld {
-        let mut id: std::collections::HashMap<[u32; 3], usize> = Default::default();
+    let (local, nv): (Vec<[u32; 3]>, usize) = if weld {
+        let mut id: std::collections::HashMap<[u32; 3], u32> = Default::default();
         let local = tris
             .iter()
             .map(|t| {
                 t.map(|v| {
                     // +0.0 turns −0.0 into +0.0: one point, as the exact weld has it.
                     let key = positions[v as usize].map(|x| (x + 0.0).to_bits());
-                    let next = id.len();
+                    let next = id.len() as u32;
                     *id.entry(key).or_insert(next)
                 })
             })
             .collect();
         (local, id.len())
     } else if positions.len() <= 4 * n {
-        let mut id = vec![usize::MAX; positions.len()];
-        let mut nv = 0;
+        let mut id = vec![u32::MAX; positions.len()];
+        let mut nv = 0u32;
         let local = tris
             .iter()
             .map(|t| {
                 t.map(|v| {
                     let slot = &mut id[v as usize];
-                    if *slot == usize::MAX {
+                    if *slot == u32::MAX {
                         *slot = nv;
                         nv += 1;
                     }
@@ -429,32 +430,32 @@ fn split(
                 })
             })
             .collect();
-        (local, nv)
+        (local, nv as usize)
     } else {
         let mut vertices: Vec<u32> = tris.iter().flatten().copied().collect();
         vertices.sort_unstable();
         vertices.dedup();
         let local = tris
             .iter()
-            .map(|t| t.map(|v| vertices.binary_search(&v).unwrap_or(0)))
+            .map(|t| t.map(|v| vertices.binary_search(&v).unwrap_or(0) as u32))
             .collect();
         (local, vertices.len())
     };
     let mut start = vec![0usize; nv + 1];
     for t in &local {
         for &v in t {
-            start[v + 1] += 1;
+            start[v as usize + 1] += 1;
         }
     }
     for v in 0..nv {
         start[v + 1] += start[v];
     }
     let mut fill = start.clone();
-    let mut around = vec![0usize; 3 * n];
+    let mut around = vec![0u32; 3 * n];
     for (t, corners) in local.iter().enumerate() {
         for &v in corners {
-            around[fill[v]] = t;
-            fill[v] += 1;
+            around[fill[v as usize]] = t as u32;
+            fill[v as usize] += 1;
         }
     }
     drop(fill);
@@ -520,10 +521,10 @@ const FREE: u32 = u32::MAX;
 /// holds it; the current cluster's triangles, its candidates (a heap by
 /// vertices inside, then distance to the seed) and its seed's centroid.
 struct Grower<'a> {
-    local: &'a [[usize; 3]],
+    local: &'a [[u32; 3]],
     centroids: &'a [[f64; 3]],
     start: &'a [usize],
-    around: &'a [usize],
+    around: &'a [u32],
     cluster_of: Vec<u32>,
     vertex_in: Vec<u32>,
     queued: Vec<u32>,
@@ -544,11 +545,13 @@ impl Grower<'_> {
         self.cluster_of[t] = self.id;
         self.members.push(t);
         for &v in &self.local[t] {
+            let v = v as usize;
             if self.vertex_in[v] == self.id {
                 continue;
             }
             self.vertex_in[v] = self.id;
             for &u in &self.around[self.start[v]..self.start[v + 1]] {
+                let u = u as usize;
                 if self.cluster_of[u] != FREE {
                     continue;
                 }

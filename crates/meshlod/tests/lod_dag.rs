@@ -170,8 +170,8 @@ fn a_view_direction_coarsens_what_is_out_of_view_and_keeps_the_cut_closed() {
     // Views of points of the sphere, near and far: closed, each cluster in view
     // within the budget, and no more triangles than the same screen with every
     // direction in view. Only groups wholly out of view can be coarsened (their
-    // spheres enclose their clusters'), so the narrow view far away gains, the
-    // others little or nothing. Culling (`visible`) keeps exactly the clusters whose
+    // spheres enclose their clusters'), so the narrow view from 2 radii gains,
+    // the others little or nothing. Culling (`visible`) keeps exactly the clusters whose
     // own triangles' spheres reach into the view.
     let mut checked = 0;
     for (camera, target, fov, fewer) in [

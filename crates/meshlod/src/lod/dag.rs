@@ -9,9 +9,10 @@
 //! 2. each round, the clusters not yet simplified are put into groups of about
 //!    [`DagOptions::group_size`] clusters (merged smallest first with the neighbour
 //!    sharing the most vertices, Kurita's agglomerative clustering, so that few
-//!    vertices are shared between groups); each group's triangles are simplified to half with QEM, every vertex
-//!    the group shares with another group locked (so the group's outer border stays
-//!    where it is), and the result is split into new clusters;
+//!    vertices are shared between groups); each group's triangles are simplified
+//!    to half with QEM, every vertex the group shares with another group locked
+//!    (so the group's outer border stays where it is), and the result is split
+//!    into new clusters;
 //! 3. a group that cannot reach three quarters of its triangles is left as it was;
 //!    its clusters go into the next round's grouping. Rounds go on until one cluster
 //!    is left or a round simplifies no group.
@@ -151,8 +152,8 @@ pub struct Cluster {
 
 impl Cluster {
     /// The bounding sphere of its own triangles (`positions`: [`Dag::positions`]),
-    /// tighter than [`Self::sphere`], which bounds the whole group that made it
-    /// (as the cut's monotone errors need): what frustum culling tests.
+    /// usually tighter than [`Self::sphere`], which bounds the whole group that
+    /// made it (as the cut's monotone errors need): what frustum culling tests.
     #[must_use]
     pub fn bounds(&self, positions: &[[f32; 3]]) -> Sphere {
         Sphere::around(
@@ -468,6 +469,7 @@ fn split(
         vertex_in: vec![FREE; nv],
         queued: vec![FREE; n],
         inside: vec![0; n],
+        valence_cap: 4 * size,
         id: 0,
         members: Vec::with_capacity(size),
         candidates: BinaryHeap::new(),
@@ -530,6 +532,8 @@ struct Grower<'a> {
     queued: Vec<u32>,
     /// Per queued triangle, its vertices already in the current cluster.
     inside: Vec<u8>,
+    /// Vertices with more triangles than this are not expanded (fan apexes).
+    valence_cap: usize,
     id: u32,
     members: Vec<usize>,
     candidates: BinaryHeap<(u8, Reverse<u64>, Reverse<usize>)>,
@@ -550,6 +554,13 @@ impl Grower<'_> {
                 continue;
             }
             self.vertex_in[v] = self.id;
+            // A fan's apex (a vertex of more triangles than a few clusters
+            // hold) queues nothing: each cluster around it would scan its whole
+            // fan, quadratic in its valence. Its triangles are reached through
+            // their other vertices or the Morton order.
+            if self.start[v + 1] - self.start[v] > self.valence_cap {
+                continue;
+            }
             for &u in &self.around[self.start[v]..self.start[v + 1]] {
                 let u = u as usize;
                 if self.cluster_of[u] != FREE {
@@ -1496,6 +1507,30 @@ fn read_cluster(b: &mut Bytes<'_>, np: u64, groups: Option<usize>) -> Result<Clu
 mod tests {
     use super::*;
     use crate::mesh::generate;
+
+    /// A fan of 20,000 triangles around one apex (an n-gon fanned from a
+    /// corner): the apex is not expanded, so the split stays linear, and every
+    /// triangle lands in exactly one cluster of at most 128.
+    #[test]
+    fn a_fan_is_split_without_scanning_its_apex() {
+        let k = 20_000u32;
+        let mut positions = vec![[0.0f32, 0.0, 0.0]];
+        for i in 0..=k {
+            let a = f64::from(i) / f64::from(k) * 6.0;
+            positions.push([a.cos() as f32, a.sin() as f32, 0.0]);
+        }
+        let tris: Vec<[u32; 3]> = (1..=k).map(|i| [0, i, i + 1]).collect();
+        let parts = split(&positions, &tris, &[], 128, false);
+        let mut seen = vec![0u8; tris.len()];
+        for (c, _) in &parts {
+            assert!(!c.is_empty() && c.len() <= 128);
+            for t in c {
+                seen[(t[1] - 1) as usize] += 1;
+            }
+        }
+        assert!(seen.iter().all(|&x| x == 1));
+        assert_eq!(parts.len(), (k as usize).div_ceil(128));
+    }
 
     /// A hilly ramp (64 × 64 cells, 8,192 triangles): the clusters take every
     /// triangle once, at most 128 each, and are compact (a square patch of 128

@@ -1229,11 +1229,11 @@ fn simplify_parts(
         b.set_position(0);
     }
     let size = |i: usize| scene.parts[i].mesh.triangles.len();
-    // Every run's time, once (the report's phase times are their sums).
-    let mut spent = Spent::default();
-    let run_all = |jobs: &[(usize, SimplifyOptions)],
-                   units: u64,
-                   curves: Option<&mut Vec<crate::budget::Curve>>|
+    // Every run's phase times, each run once (the report gives their sums).
+    let mut spent = Steps::default();
+    let mut run_all = |jobs: &[(usize, SimplifyOptions)],
+                       units: u64,
+                       curves: Option<&mut Vec<crate::budget::Curve>>|
      -> Result<Vec<meshlod::simplify::Simplified>> {
         let recording = curves.is_some();
         let sizes: u64 = jobs.iter().map(|(i, _)| size(*i) as u64).sum();
@@ -1276,6 +1276,9 @@ fn simplify_parts(
             done[together[k]] = Some(r);
         }
         let (results, c): (Vec<_>, Vec<_>) = done.into_iter().flatten().unzip();
+        for r in &results {
+            add_steps(&mut spent, &r.report.phases);
+        }
         if let Some(curves) = curves {
             *curves = c;
         }
@@ -1291,7 +1294,6 @@ fn simplify_parts(
         let jobs: Vec<_> = (0..n_parts).map(|i| (i, probe.clone())).collect();
         let mut curves = Vec::new();
         let probes = run_all(&jobs, work as u64, Some(&mut curves))?;
-        probes.iter().for_each(|p| spent.add(&p.report));
         // A curve that missed collapses (a run that did not report them all)
         // would misplace the budget: then the split by size is used.
         let whole = curves
@@ -1312,9 +1314,7 @@ fn simplify_parts(
                     (i, o)
                 })
                 .collect();
-            let rerun = run_all(&again, work as u64, None)?;
-            rerun.iter().for_each(|r| spent.add(&r.report));
-            let mut rerun = rerun.into_iter();
+            let mut rerun = run_all(&again, work as u64, None)?.into_iter();
             let mut at_floor = 0;
             let mut next = again.iter().map(|(i, _)| *i).peekable();
             for (i, probe) in probes.into_iter().enumerate() {
@@ -1337,7 +1337,6 @@ fn simplify_parts(
             }
         }
         results = run_all(&jobs, work as u64, None)?;
-        results.iter().for_each(|r| spent.add(&r.report));
     }
     // Parts that cannot reach their share (a bolt of 12 triangles, a part whose
     // holes all stay) leave the scene above its target: the parts that reached
@@ -1384,7 +1383,6 @@ fn simplify_parts(
                 b.inc_length(units);
             }
             for ((i, _), r) in jobs.iter().zip(run_all(&jobs, units, None)?) {
-                spent.add(&r.report);
                 results[*i] = r;
                 squeezed[*i] = true;
             }
@@ -1427,7 +1425,7 @@ fn simplify_parts(
     // The parts' runs (some at once on several threads): the wall time, and
     // each phase summed over every run.
     agg.seconds = started.elapsed().as_secs_f64();
-    agg.phases = spent.phases;
+    agg.phases = spent;
     let more = squeezed.iter().filter(|&&q| q).count();
     let parts = |n: usize| {
         if n == 1 {
@@ -1501,18 +1499,6 @@ fn simplify_parts(
         }
     }
     Ok((out, agg))
-}
-
-/// The phase times of every run of a scene's parts, each counted once.
-#[derive(Default)]
-struct Spent {
-    phases: Steps,
-}
-
-impl Spent {
-    fn add(&mut self, r: &Report) {
-        add_steps(&mut self.phases, &r.phases);
-    }
 }
 
 /// Adds one run's phase times to a sum.

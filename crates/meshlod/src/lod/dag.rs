@@ -397,51 +397,53 @@ fn split(
     let keys = morton_keys(&centroids);
     let mut order: Vec<usize> = (0..n).collect();
     order.sort_by_key(|&i| (keys[i], i));
-    // The triangles' vertices as local ids, and each local vertex's triangles.
-    // With `weld` (attributes split vertices at seams) by position, so that a
-    // cluster grows across seams; else a table over every position for the
-    // input, which uses most of them, or a sorted list searched for a group's few.
-    let (local, nv): (Vec<[u32; 3]>, usize) = if weld {
-        let mut id: std::collections::HashMap<[u32; 3], u32> = Default::default();
-        let local = tris
-            .iter()
-            .map(|t| {
-                t.map(|v| {
-                    // +0.0 turns −0.0 into +0.0: one point, as the exact weld has it.
-                    let key = positions[v as usize].map(|x| (x + 0.0).to_bits());
-                    let next = id.len() as u32;
-                    *id.entry(key).or_insert(next)
-                })
-            })
-            .collect();
-        (local, id.len())
-    } else if positions.len() <= 4 * n {
+    // The triangles' vertices as local ids (a table over every position for the
+    // input, which uses most of them; a sorted list searched for a group's few),
+    // and the vertex of each local id.
+    let (mut local, used): (Vec<[u32; 3]>, Vec<u32>) = if positions.len() <= 4 * n {
         let mut id = vec![u32::MAX; positions.len()];
-        let mut nv = 0u32;
+        let mut used = Vec::new();
         let local = tris
             .iter()
             .map(|t| {
                 t.map(|v| {
                     let slot = &mut id[v as usize];
                     if *slot == u32::MAX {
-                        *slot = nv;
-                        nv += 1;
+                        *slot = used.len() as u32;
+                        used.push(v);
                     }
                     *slot
                 })
             })
             .collect();
-        (local, nv as usize)
+        (local, used)
     } else {
-        let mut vertices: Vec<u32> = tris.iter().flatten().copied().collect();
-        vertices.sort_unstable();
-        vertices.dedup();
+        let mut used: Vec<u32> = tris.iter().flatten().copied().collect();
+        used.sort_unstable();
+        used.dedup();
         let local = tris
             .iter()
-            .map(|t| t.map(|v| vertices.binary_search(&v).unwrap_or(0) as u32))
+            .map(|t| t.map(|v| used.binary_search(&v).unwrap_or(0) as u32))
             .collect();
-        (local, vertices.len())
+        (local, used)
     };
+    // With `weld` (attributes split vertices at seams) the local ids become
+    // points, so that a cluster grows across seams.
+    let nv = if weld {
+        let w = Weld::exact(
+            &used
+                .iter()
+                .map(|&v| positions[v as usize])
+                .collect::<Vec<_>>(),
+        );
+        for t in &mut local {
+            *t = t.map(|v| w.point_of[v as usize]);
+        }
+        w.representative.len()
+    } else {
+        used.len()
+    };
+    drop(used);
     let mut start = vec![0usize; nv + 1];
     for t in &local {
         for &v in t {

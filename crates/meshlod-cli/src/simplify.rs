@@ -236,6 +236,10 @@ pub struct SimplifyArgs {
     /// facing away from the input back toward it without raising the distance).
     #[arg(long, hide = true, help_heading = heading::TUNING_QEM)]
     pub no_facing_repair: bool,
+    /// qem: keep the collapses' normals, texture coordinates and colours (skip the
+    /// least-squares refit of those values to the input's).
+    #[arg(long, hide = true, help_heading = heading::TUNING_QEM)]
+    pub no_refit_attributes: bool,
     /// With --fit: no diagonal swaps (the fitting alone; without --fit there are
     /// none anyway).
     #[arg(long, conflicts_with = "swap", hide = true, help_heading = heading::TUNING_QEM)]
@@ -406,6 +410,9 @@ struct CliReport {
     components_removed: usize,
     /// Output points moved by the vertex fitting (qem).
     fit_moved: usize,
+    /// Output vertices whose normals, texture coordinates or colours were refitted
+    /// to the input's (qem).
+    attributes_refit: usize,
     /// Diagonals swapped toward the input (qem).
     edge_swaps: usize,
     /// The input was flat shaded: simplified without its normals, and the output
@@ -608,6 +615,7 @@ fn options(args: &SimplifyArgs) -> Result<SimplifyOptions> {
         o = o.with_defer_slack(Some(s));
     }
     o = o.with_facing_repair(!args.no_facing_repair);
+    o = o.with_refit_attributes(!args.no_refit_attributes);
     o = o.with_reshade_flat(!args.no_reshade_flat);
     let fitting = match args.fit_iterations {
         Some(n) => n > 0,
@@ -979,6 +987,7 @@ fn report(
         holes_closed: agg.holes_closed,
         components_removed: agg.components_removed,
         fit_moved: agg.fit_moved,
+        attributes_refit: agg.attributes_refit,
         edge_swaps: agg.edge_swaps,
         flat_shading: agg.flat_shading,
         facing_away: agg.facing_away,
@@ -1049,6 +1058,7 @@ struct Aggregate {
     holes_closed: usize,
     components_removed: usize,
     fit_moved: usize,
+    attributes_refit: usize,
     edge_swaps: usize,
     flat_shading: bool,
     facing_away: Option<[usize; 2]>,
@@ -1082,6 +1092,7 @@ impl Aggregate {
             holes_closed: 0,
             components_removed: 0,
             fit_moved: 0,
+            attributes_refit: 0,
             edge_swaps: 0,
             flat_shading: false,
             facing_away: None,
@@ -1121,6 +1132,7 @@ impl Aggregate {
         self.holes_closed += instances * r.holes_closed;
         self.components_removed += instances * r.components_removed;
         self.fit_moved += r.fit_moved;
+        self.attributes_refit += r.attributes_refit;
         self.edge_swaps += r.edge_swaps;
         self.flat_shading |= r.flat_shading;
         if let Some(n) = r.non_manifold_points_in {
@@ -1648,6 +1660,12 @@ fn print_text(r: &CliReport) {
         out!(
             "  fitting      {} points moved toward the input",
             r.fit_moved
+        );
+    }
+    if r.attributes_refit > 0 {
+        out!(
+            "  attributes   {} vertices' normals, texture coordinates or colours refitted to the input",
+            r.attributes_refit
         );
     }
     if r.flat_shading {

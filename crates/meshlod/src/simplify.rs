@@ -218,6 +218,13 @@ pub struct SimplifyOptions {
     /// module's rules). No vertex moves; topology, seams and groups are kept; a
     /// closest-point tree over the input is built for it. Default `true`.
     pub facing_repair: bool,
+    /// [`Method::Qem`] on a mesh with normals, texture coordinates or colours:
+    /// after simplifying, set the output's values of those attributes to the
+    /// least-squares fit of the input's at corresponding points, geometry fixed
+    /// (the `refit` module's rules; Hoppe 1996's `E_scalar`). Seams and locked
+    /// vertices are kept; not with [`Placement::Endpoint`] (no vertex changes
+    /// there). Default `true`.
+    pub refit_attributes: bool,
     /// [`Method::Qem`] with [`Placement::Optimal`] or [`Placement::Midpoint`]: after
     /// simplifying (before the orientation repair), this many iterations that move
     /// the output's points toward the input surface, the input's vertices and
@@ -317,6 +324,7 @@ impl Default for SimplifyOptions {
             defer_bound: false,
             defer_slack: Some(crate::decimate::vertex_removal::FAST_ORDER_SLACK),
             facing_repair: true,
+            refit_attributes: true,
             fit_iterations: 0,
             edge_swaps: false,
             reshade_flat: true,
@@ -387,6 +395,13 @@ impl SimplifyOptions {
     #[must_use]
     pub fn with_reshade_flat(mut self, on: bool) -> Self {
         self.reshade_flat = on;
+        self
+    }
+
+    /// Sets [`Self::refit_attributes`].
+    #[must_use]
+    pub fn with_refit_attributes(mut self, refit: bool) -> Self {
+        self.refit_attributes = refit;
         self
     }
 
@@ -774,6 +789,9 @@ pub struct Report {
     /// Output points (distinct positions) the vertex fitting moved
     /// ([`SimplifyOptions::fit_iterations`]); 0 when it did not run.
     pub fit_moved: usize,
+    /// Output vertices whose normals, texture coordinates or colours the attribute
+    /// refit changed ([`SimplifyOptions::refit_attributes`]); 0 when it did not run.
+    pub attributes_refit: usize,
     /// Diagonals swapped toward the input ([`SimplifyOptions::edge_swaps`]); 0 when
     /// the swaps did not run.
     pub edge_swaps: usize,
@@ -921,10 +939,27 @@ pub fn simplify_observed(
         passes,
         diag,
     );
+    // With endpoint placement no vertex changes, attributes included (what a
+    // progressive mesh's vertex splits restore).
+    let refit = if options.refit_attributes
+        && options.method == Method::Qem
+        && options.placement != Placement::Endpoint
+        && outcome.collapses > 0
+        && !out.attributes.is_empty()
+    {
+        let locked: Vec<bool> = match &options.locked_vertices {
+            Some(l) => vertex_source.iter().map(|&s| l[s as usize]).collect(),
+            None => Vec::new(),
+        };
+        refit::refit_attributes(mesh, &mut out, &locked)
+    } else {
+        0
+    };
     phases.refine = t_refine.elapsed().as_secs_f64();
-    let report = assemble_report(
+    let mut report = assemble_report(
         mesh, options, target, &out, outcome, &repair, diag, fitted, facing, phases, start, census,
     );
+    report.attributes_refit = refit;
     Ok(Simplified {
         mesh: out,
         report,
@@ -980,6 +1015,7 @@ fn assemble_report(
         facing_flips: facing.map_or(0, |f| f.flips),
         facing_away: facing.map(|f| [f.before, f.after]),
         fit_moved: fitted.moved,
+        attributes_refit: 0,
         edge_swaps: fitted.swaps,
         flat_shading: false,
         cluster: None,
@@ -1484,6 +1520,7 @@ fn cluster_result(
         facing_flips: 0,
         facing_away: None,
         fit_moved: 0,
+        attributes_refit: 0,
         edge_swaps: 0,
         flat_shading: false,
         cluster: Some(c.stats),
@@ -1641,6 +1678,7 @@ mod facing;
 mod fit;
 mod flat;
 mod levels;
+mod refit;
 pub use fit::DEFAULT_FIT_ITERATIONS;
 #[cfg(test)]
 mod tests;

@@ -326,3 +326,38 @@ proptest! {
         }
     }
 }
+
+/// The attribute refit (on by default) brings the Duck's output normals and UVs
+/// closer to the input's at corresponding points than the collapses' values, at the
+/// same geometry: at 10%, the mean normal angle fell from 6.32° to 5.57° when this
+/// was written, the mean UV distance from 0.0057 to 0.0055.
+#[test]
+fn refit_lowers_the_ducks_attribute_deviation() {
+    let scene = read_scene(common::data_dir().join("Duck/Duck.gltf")).expect("reads");
+    let duck = &scene.parts[0].mesh;
+    let on = SimplifyOptions::default().with_ratio(0.1);
+    let off = on.clone().with_refit_attributes(false);
+    let (a, ra) = simplify(duck, &on).expect("valid");
+    let (b, rb) = simplify(duck, &off).expect("valid");
+    assert_eq!(a.positions, b.positions, "the refit moves no point");
+    assert_eq!(a.triangles, b.triangles);
+    assert!(
+        ra.attributes_refit > a.positions.len() / 2,
+        "{}",
+        ra.attributes_refit
+    );
+    assert_eq!(rb.attributes_refit, 0);
+    let s = SamplingOptions::default();
+    let dev_a = meshlod::metrics::appearance::appearance(duck, &a, &s).expect("attributes");
+    let dev_b = meshlod::metrics::appearance::appearance(duck, &b, &s).expect("attributes");
+    let (na, nb) = (
+        dev_a.normal_deg.unwrap().mean,
+        dev_b.normal_deg.unwrap().mean,
+    );
+    let (ua, ub) = (dev_a.uv.unwrap().mean, dev_b.uv.unwrap().mean);
+    assert!(
+        na < 0.95 * nb,
+        "normal mean {na}° with the refit, {nb}° without"
+    );
+    assert!(ua <= ub, "UV mean {ua} with the refit, {ub} without");
+}

@@ -997,6 +997,8 @@ fn simplify_group(
     o.locked_vertices = Some(locked);
     o.chunks = false;
     o.threads = Some(1);
+    // A vertex keeps its id only with its values unchanged (`apply_group`).
+    o.refit_attributes = false;
     let mut result = simplify_observed(&group, &o, &mut NoObserver)?;
     let seams = !group.attributes.is_empty() || group.groups.is_some();
     if result.mesh.triangles.len() * 4 > n * 3 && seams && !o.permissive && !o.strict_seams {

@@ -156,10 +156,12 @@ impl ProgressiveMesh {
         let mut rec = Recorder::default();
         // The orientation repair's diagonal swaps are not vertex splits: the base
         // mesh is the collapses' result as it stands.
-        // Flat re-shading would record the collapses over another vertex buffer.
+        // Flat re-shading would record the collapses over another vertex buffer;
+        // the attribute refit would change values the splits do not restore.
         let options = &options
             .clone()
             .with_facing_repair(false)
+            .with_refit_attributes(false)
             .with_reshade_flat(false);
         let s = simplify_observed(mesh, options, &mut rec)?;
         if rec.moved_kept {

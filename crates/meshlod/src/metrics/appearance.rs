@@ -39,7 +39,7 @@
 //! material, where the closest triangle belongs to another material.
 
 use super::bvh::Bvh;
-use super::triangle::{closest_point, dist2, Region, V3};
+use super::triangle::{barycentric, closest_point, dist2, Region, V3};
 use super::{allot, Pcg, SamplingOptions};
 use crate::mesh::{Mesh, Weld};
 use rayon::prelude::*;
@@ -594,31 +594,6 @@ fn one_sided(
         samples: total.samples,
         uv_unmatched: total.uv_unmatched,
     }
-}
-
-/// Barycentric weights of `q` (a point of the triangle's plane) in `(a, b, c)`,
-/// clamped to the triangle; a degenerate triangle gives the nearest corner's weights.
-fn barycentric(q: V3, a: V3, b: V3, c: V3) -> [f64; 3] {
-    let (v0, v1, v2) = (sub(b, a), sub(c, a), sub(q, a));
-    let (d00, d01, d11) = (dot(v0, v0), dot(v0, v1), dot(v1, v1));
-    let (d20, d21) = (dot(v2, v0), dot(v2, v1));
-    let den = d00 * d11 - d01 * d01;
-    if den > 1e-300 && den > 1e-14 * d00 * d11 {
-        let v = (d11 * d20 - d01 * d21) / den;
-        let w = (d00 * d21 - d01 * d20) / den;
-        let mut x = [1.0 - v - w, v, w].map(|x| x.max(0.0));
-        let s: f64 = x.iter().sum();
-        if s > 0.0 {
-            x = x.map(|y| y / s);
-            return x;
-        }
-    }
-    // Degenerate: the nearest corner.
-    let d = [dist2(q, a), dist2(q, b), dist2(q, c)];
-    let k = (0..3).fold(0, |m, i| if d[i] < d[m] { i } else { m });
-    let mut w = [0.0; 3];
-    w[k] = 1.0;
-    w
 }
 
 fn angle_deg(a: V3, b: V3) -> f64 {

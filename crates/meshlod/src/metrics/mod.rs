@@ -303,7 +303,7 @@ impl Probe<'_> {
 }
 
 #[inline]
-fn f64v(p: [f32; 3]) -> V3 {
+pub(crate) fn f64v(p: [f32; 3]) -> V3 {
     [f64::from(p[0]), f64::from(p[1]), f64::from(p[2])]
 }
 

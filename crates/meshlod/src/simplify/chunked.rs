@@ -246,13 +246,22 @@ pub(super) fn simplify_chunked(
         None => refine(mesh, options, &mut out, &vertex_source, None, passes, diag),
     };
     drop(tree);
+    let refit = if options.refit_attributes && !out.attributes.is_empty() {
+        let locked: Vec<bool> = match &options.locked_vertices {
+            Some(l) => vertex_source.iter().map(|&s| l[s as usize]).collect(),
+            None => Vec::new(),
+        };
+        super::refit::refit_attributes(mesh, &mut out, &locked)
+    } else {
+        0
+    };
     let phases = Phases {
         build: (t_chunks - t_build).as_secs_f64() + global.build,
         decimate: (t_merge - t_chunks).as_secs_f64() + global.decimate,
         output: (t_global - t_merge).as_secs_f64() + global.output,
         refine: t_refine.elapsed().as_secs_f64(),
     };
-    let report = chunked_report(ChunkedRun {
+    let mut report = chunked_report(ChunkedRun {
         mesh,
         target,
         diag,
@@ -265,6 +274,7 @@ pub(super) fn simplify_chunked(
         seconds: start.elapsed().as_secs_f64(),
         census,
     });
+    report.attributes_refit = refit;
     Ok(Simplified {
         mesh: out,
         report,
@@ -632,6 +642,7 @@ fn chunked_report(run: ChunkedRun<'_>) -> Report {
         facing_flips: run.facing.map_or(0, |f| f.flips),
         facing_away: run.facing.map(|f| [f.before, f.after]),
         fit_moved: 0,
+        attributes_refit: 0,
         edge_swaps: 0,
         flat_shading: false,
         cluster: None,

@@ -239,6 +239,7 @@ struct SimplifyReport {
     holes_closed: usize,
     components_removed: usize,
     fit_moved: usize,
+    attributes_refit: usize,
     edge_swaps: usize,
     flat_shading: bool,
     #[serde(skip_serializing_if = "Option::is_none")]
@@ -372,6 +373,7 @@ fn simplify<'py>(
         holes_closed: r.holes_closed,
         components_removed: r.components_removed,
         fit_moved: r.fit_moved,
+        attributes_refit: r.attributes_refit,
         edge_swaps: r.edge_swaps,
         flat_shading: r.flat_shading,
         facing_away: r.facing_away,

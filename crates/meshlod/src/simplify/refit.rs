@@ -39,8 +39,11 @@
 //!   max(|residual|, δ)` from the last (iteratively reweighted least squares: the
 //!   mean difference, which `meshlod measure` reports, rather than its square, so a
 //!   crease crossed by a collapse does not pull its whole neighbourhood). Normals are
-//!   renormalised after. Tangents, joints and weights are left as they are; so are
-//!   locked vertices.
+//!   renormalised after, and tangents made perpendicular to them again (their
+//!   handedness kept). Joints and weights are left as they are; so are locked
+//!   vertices. Wedges at one point with the same value of a stream are one unknown of
+//!   that stream, so a UV seam does not become a normal crease. A sample whose value
+//!   is not finite pulls nothing.
 
 use crate::mesh::Mesh;
 use crate::metrics::bvh::Bvh;
@@ -186,14 +189,38 @@ pub(crate) fn refit_attributes(input: &Mesh, out: &mut Mesh, locked: &[bool]) ->
             })
             .collect();
         let x0: Vec<f64> = so_values(out, k);
-        let mut rw = vec![1.0f64; pairs.len()];
+        // Wedges at one point with the same value of this stream are one unknown:
+        // a UV seam does not become a normal crease, nor a crease a UV seam.
+        let group = same_value_groups(out, &x0, d);
+        let tris: Vec<[u32; 3]> = out
+            .triangles
+            .iter()
+            .map(|t| t.map(|v| group[v as usize]))
+            .collect();
+        let mut held = vec![false; nv];
+        for (v, &g) in group.iter().enumerate() {
+            held[g as usize] |= locked.get(v).copied().unwrap_or(false);
+        }
+        // A sample whose value is not finite (a NaN in the file) pulls nothing.
+        let mut rw: Vec<f64> = targets
+            .iter()
+            .map(|a| f64::from(u8::from(a.iter().all(|x| x.is_finite()))))
+            .collect();
+        let finite = rw.clone();
         let mut delta = 0.0;
         let mut x = x0.clone();
         let mut fixed = vec![true; nv];
         for round in 0..ROUNDS {
-            let (xr, fx) = solve(out, &pairs, &targets, &rw, k, d, &x0, &x, locked);
+            let (xr, fx) = solve(out, &tris, &pairs, &targets, &rw, k, d, &x0, &x, &held);
             x = xr;
             fixed = fx;
+            for (v, &g) in group.iter().enumerate() {
+                let g = g as usize;
+                for j in 0..d {
+                    x[v * d + j] = x[g * d + j];
+                }
+                fixed[v] = fixed[g];
+            }
             if round + 1 == ROUNDS {
                 break;
             }
@@ -211,24 +238,27 @@ pub(crate) fn refit_attributes(input: &Mesh, out: &mut Mesh, locked: &[bool]) ->
             let mut res = vec![0.0f64; pairs.len()];
             for (i, p) in pairs.iter().enumerate() {
                 let t = p.triangle[k];
-                if t == u32::MAX {
+                if t == u32::MAX || finite[i] == 0.0 {
                     continue;
                 }
-                let tri = out.triangles[t as usize];
+                let tri = tris[t as usize];
                 let mut v = [0.0f64; 4];
                 for c in 0..3 {
                     for j in 0..d {
                         v[j] += f64::from(p.bary[k][c]) * xs[tri[c] as usize * d + j];
                     }
                 }
+                let mut target = targets[i];
                 if k == NORMAL {
-                    let l = (0..3).map(|j| v[j].powi(2)).sum::<f64>().sqrt();
-                    if l > 0.0 {
-                        (0..3).for_each(|j| v[j] /= l);
+                    for u in [&mut v, &mut target] {
+                        let l = (0..3).map(|j| u[j].powi(2)).sum::<f64>().sqrt();
+                        if l > 0.0 {
+                            (0..3).for_each(|j| u[j] /= l);
+                        }
                     }
                 }
                 let r = (0..d)
-                    .map(|j| (v[j] - targets[i][j]).powi(2))
+                    .map(|j| (v[j] - target[j]).powi(2))
                     .sum::<f64>()
                     .sqrt();
                 res[i] = r;
@@ -237,7 +267,9 @@ pub(crate) fn refit_attributes(input: &Mesh, out: &mut Mesh, locked: &[bool]) ->
                 let (sw, sr) = pairs
                     .iter()
                     .zip(&res)
-                    .filter(|(p, _)| p.triangle[k] != u32::MAX)
+                    .zip(&finite)
+                    .filter(|((p, _), &f)| p.triangle[k] != u32::MAX && f > 0.0)
+                    .map(|(x, _)| x)
                     .fold((0.0, 0.0), |(w, r2), (p, &r)| {
                         (w + f64::from(p.weight), r2 + f64::from(p.weight) * r * r)
                     });
@@ -247,11 +279,30 @@ pub(crate) fn refit_attributes(input: &Mesh, out: &mut Mesh, locked: &[bool]) ->
                     0.0
                 };
             }
-            for (w, &r) in rw.iter_mut().zip(&res) {
-                *w = 1.0 / r.max(delta).max(1e-12);
+            for ((w, &r), &f) in rw.iter_mut().zip(&res).zip(&finite) {
+                *w = f / r.max(delta).max(1e-12);
             }
         }
         store(out, k, &x, &fixed, &mut changed);
+    }
+    // Tangents stay perpendicular to the refitted normals (Gram-Schmidt; the
+    // handedness kept).
+    if let (Some(n), Some(t)) = (&out.attributes.normals, &mut out.attributes.tangents) {
+        for (n, t) in n.iter().zip(t.iter_mut()) {
+            let n = f64v(*n);
+            let v = [t[0], t[1], t[2]].map(f64::from);
+            let s = dot(v, n);
+            let u = sub(v, [n[0] * s, n[1] * s, n[2] * s]);
+            let l = dot(u, u).sqrt();
+            if l > 1e-6 * dot(v, v).sqrt() {
+                *t = [
+                    (u[0] / l) as f32,
+                    (u[1] / l) as f32,
+                    (u[2] / l) as f32,
+                    t[3],
+                ];
+            }
+        }
     }
     changed.iter().filter(|&&c| c).count()
 }
@@ -361,6 +412,7 @@ fn pair(
 #[allow(clippy::too_many_arguments)]
 fn solve(
     out: &Mesh,
+    tris: &[[u32; 3]],
     pairs: &[Pair],
     targets: &[[f64; 4]],
     rw: &[f64],
@@ -389,7 +441,7 @@ fn solve(
                 m[r * 3 + c] += ww * b[r] * b[c];
             }
         }
-        for (c, &v) in out.triangles[i as usize].iter().enumerate() {
+        for (c, &v) in tris[i as usize].iter().enumerate() {
             diag_m[v as usize] += ww * b[c] * b[c];
             for j in 0..d {
                 rhs[v as usize * d + j] += ww * b[c] * a[j];
@@ -402,12 +454,21 @@ fn solve(
     // Each vertex held toward its value by a tenth of the weight a uniform
     // sampling of its own triangles would give it.
     let mut mu: Vec<f64> = diag_m.iter().map(|&m| 0.01 * m).collect();
-    let mean_w = rw.iter().sum::<f64>() / rw.len().max(1) as f64;
-    for t in &out.triangles {
+    // The prior scales with the samples' mean weight (over those that count).
+    let (sw, swr) = pairs
+        .iter()
+        .zip(rw)
+        .filter(|(p, &w)| p.triangle[k] != u32::MAX && w > 0.0)
+        .fold((0.0, 0.0), |(a, b), (p, &w)| {
+            let pw = f64::from(p.weight);
+            (a + pw, b + pw * w)
+        });
+    let mean_w = if sw > 0.0 { swr / sw } else { 1.0 };
+    for (t, g) in out.triangles.iter().zip(tris) {
         let [a, b, c] = t.map(|v| f64v(out.positions[v as usize]));
         let n = cross(sub(b, a), sub(c, a));
         let area = 0.5 * dot(n, n).sqrt();
-        for &v in t {
+        for &v in g {
             mu[v as usize] += 0.1 * mean_w * area / 6.0;
         }
     }
@@ -418,7 +479,7 @@ fn solve(
     }
     let apply = |x: &[f64], y: &mut [f64]| {
         y.iter_mut().for_each(|e| *e = 0.0);
-        for (t, m) in out.triangles.iter().zip(&blocks) {
+        for (t, m) in tris.iter().zip(&blocks) {
             for j in 0..d {
                 let xt = t.map(|v| x[v as usize * d + j]);
                 for r in 0..3 {
@@ -464,7 +525,7 @@ fn solve(
         apply(&pdir, &mut ap);
         mask(&mut ap);
         let pap: f64 = pdir.iter().zip(&ap).map(|(a, b)| a * b).sum();
-        if pap <= 0.0 {
+        if pap.is_nan() || pap <= 0.0 {
             break;
         }
         let alpha = rz / pap;
@@ -480,7 +541,32 @@ fn solve(
             pdir[i] = z[i] + beta * pdir[i];
         }
     }
+    if x.iter().any(|v| !v.is_finite()) {
+        // Not expected (non-finite samples weigh nothing): keep the start.
+        return (start.to_vec(), fixed);
+    }
     (x, fixed)
+}
+
+/// Per vertex of `out`, the first vertex at the same position with the same value
+/// (`d` floats of `x`) of the stream: one unknown of the solve.
+fn same_value_groups(out: &Mesh, x: &[f64], d: usize) -> Vec<u32> {
+    let mut first = std::collections::HashMap::with_capacity(out.positions.len());
+    (0..out.positions.len())
+        .map(|v| {
+            let key = (
+                out.positions[v].map(|c| (c + 0.0).to_bits()),
+                [0, 1, 2, 3].map(|j| {
+                    if j < d {
+                        (x[v * d + j] + 0.0).to_bits()
+                    } else {
+                        0
+                    }
+                }),
+            );
+            *first.entry(key).or_insert(v as u32)
+        })
+        .collect()
 }
 
 fn so_values(m: &Mesh, k: usize) -> Vec<f64> {
@@ -692,6 +778,54 @@ mod tests {
         refit_attributes(&input, &mut out, &[]);
         let after = angle(&out);
         assert!(after < before / 3.0, "{before}° -> {after}°");
+    }
+
+    /// A UV seam stays a UV seam only: wedges of a seam point that share one normal
+    /// before the refit share one after it (one unknown), though each side's
+    /// samples differ. The output here is the input itself with its normals turned
+    /// by a smooth field (the same at both wedges of a seam point).
+    #[test]
+    fn a_uv_seam_does_not_become_a_crease() {
+        let mut input = two_charts();
+        let normal = |p: [f32; 3], s: f32| {
+            let (x, y) = (s * (p[0] - 0.5), s * (p[1] - 0.5));
+            let l = (x * x + y * y + 1.0).sqrt();
+            [x / l, y / l, 1.0 / l]
+        };
+        input.attributes.normals = Some(input.positions.iter().map(|&p| normal(p, 1.0)).collect());
+        let mut out = input.clone();
+        out.attributes.normals = Some(out.positions.iter().map(|&p| normal(p, 3.0)).collect());
+        let mut seam = Vec::new();
+        for a in 0..out.positions.len() {
+            for b in a + 1..out.positions.len() {
+                if out.positions[a] == out.positions[b] {
+                    seam.push((a, b));
+                }
+            }
+        }
+        assert!(seam.len() >= 10, "{} seam points", seam.len());
+        assert!(refit_attributes(&input, &mut out, &[]) > 0);
+        let n = out.attributes.normals.as_ref().expect("normals kept");
+        let uv = out.attributes.uv0.as_ref().expect("uv kept");
+        for &(a, b) in &seam {
+            assert_ne!(uv[a], uv[b], "wedges {a}, {b} differ in UV");
+            assert_eq!(n[a], n[b], "wedges {a}, {b} at a seam point");
+        }
+        // And the normals came back toward the input's.
+        let input_n = input.attributes.normals.as_ref().expect("normals");
+        let err = |m: &[[f32; 3]]| {
+            m.iter()
+                .zip(input_n)
+                .map(|(a, b)| (0..3).map(|j| (a[j] - b[j]).powi(2)).sum::<f32>().sqrt())
+                .sum::<f32>()
+        };
+        let turned: Vec<[f32; 3]> = out.positions.iter().map(|&p| normal(p, 3.0)).collect();
+        assert!(
+            err(n) < 0.2 * err(&turned),
+            "{} against {}",
+            err(n),
+            err(&turned)
+        );
     }
 
     /// Nothing to fit: no attributes, or an empty output.

@@ -66,7 +66,7 @@ struct Pair {
 /// Least-squares solves per attribute: the first plain, then reweighted by the
 /// residuals (iteratively reweighted least squares toward the mean difference;
 /// one plain solve left the Duck's normal mean at 5.66°, Avocado's at 6.33°, against
-/// 5.57° and 5.70°).
+/// 5.57° and 5.70° with it, before wedges of one value were one unknown).
 const ROUNDS: usize = 4;
 /// Residuals below this fraction of the first solve's weighted RMS residual weigh as
 /// much as it (the reweighting's floor).

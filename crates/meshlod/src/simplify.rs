@@ -939,22 +939,7 @@ pub fn simplify_observed(
         passes,
         diag,
     );
-    // With endpoint placement no vertex changes, attributes included (what a
-    // progressive mesh's vertex splits restore).
-    let refit = if options.refit_attributes
-        && options.method == Method::Qem
-        && options.placement != Placement::Endpoint
-        && outcome.collapses > 0
-        && !out.attributes.is_empty()
-    {
-        let locked: Vec<bool> = match &options.locked_vertices {
-            Some(l) => vertex_source.iter().map(|&s| l[s as usize]).collect(),
-            None => Vec::new(),
-        };
-        refit::refit_attributes(mesh, &mut out, &locked)
-    } else {
-        0
-    };
+    let refit = refit_output(mesh, options, &mut out, &vertex_source, outcome.collapses);
     phases.refine = t_refine.elapsed().as_secs_f64();
     let mut report = assemble_report(
         mesh, options, target, &out, outcome, &repair, diag, fitted, facing, phases, start, census,
@@ -965,6 +950,33 @@ pub fn simplify_observed(
         report,
         vertex_source,
     })
+}
+
+/// The attribute refit of `out` against `mesh` ([`SimplifyOptions::refit_attributes`])
+/// where it applies: QEM that collapsed something, an output with attributes, not
+/// endpoint placement (no vertex changes there, attributes included: what a
+/// progressive mesh's vertex splits restore). Output vertices descending from a
+/// locked input vertex keep their values. Returns the vertices changed.
+pub(crate) fn refit_output(
+    mesh: &Mesh,
+    options: &SimplifyOptions,
+    out: &mut Mesh,
+    vertex_source: &[u32],
+    collapses: usize,
+) -> usize {
+    if !options.refit_attributes
+        || options.method != Method::Qem
+        || options.placement == Placement::Endpoint
+        || collapses == 0
+        || out.attributes.is_empty()
+    {
+        return 0;
+    }
+    let locked: Vec<bool> = match &options.locked_vertices {
+        Some(l) => vertex_source.iter().map(|&s| l[s as usize]).collect(),
+        None => Vec::new(),
+    };
+    refit::refit_attributes(mesh, out, &locked)
 }
 
 /// The [`Report`] of an edge-collapse or vertex-removal run of `mesh` to `out`.

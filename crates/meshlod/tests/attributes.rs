@@ -361,3 +361,48 @@ fn refit_lowers_the_ducks_attribute_deviation() {
     );
     assert!(ua <= ub, "UV mean {ua} with the refit, {ub} without");
 }
+
+/// Levels decimated in one run (`simplify_levels`, what `meshlod lod` uses) are
+/// refitted as a single run is, against the input: each level's normals and UVs
+/// come closer to the input's than the collapses' values, at the same geometry.
+#[test]
+fn levels_in_one_run_are_refitted() {
+    use meshlod::simplify::{simplify_levels, LevelOutput, LevelStop};
+    let scene = read_scene(common::data_dir().join("Duck/Duck.gltf")).expect("reads");
+    let duck = &scene.parts[0].mesh;
+    let counts = [1000usize, 300];
+    let run = |o: &SimplifyOptions| -> Vec<LevelOutput> {
+        let mut asked = 0;
+        simplify_levels(duck, o, &mut |_| {
+            let stop = counts.get(asked).map(|&n| LevelStop {
+                max_error: None,
+                at_most: n,
+            });
+            asked += 1;
+            stop
+        })
+        .expect("levels")
+    };
+    let on = run(&SimplifyOptions::default());
+    let off = run(&SimplifyOptions::default().with_refit_attributes(false));
+    assert_eq!(on.len(), 2);
+    let s = SamplingOptions::default();
+    for (a, b) in on.iter().zip(&off) {
+        let (a, b) = (&a.simplified, &b.simplified);
+        let n = a.mesh.triangles.len();
+        assert!(
+            a.report.attributes_refit > 0,
+            "level of {n}: nothing refitted"
+        );
+        assert_eq!(b.report.attributes_refit, 0);
+        assert_eq!(a.mesh.positions, b.mesh.positions, "level of {n}");
+        assert_eq!(a.mesh.triangles, b.mesh.triangles, "level of {n}");
+        let da = meshlod::metrics::appearance::appearance(duck, &a.mesh, &s).expect("attributes");
+        let db = meshlod::metrics::appearance::appearance(duck, &b.mesh, &s).expect("attributes");
+        let (na, nb) = (da.normal_deg.unwrap().mean, db.normal_deg.unwrap().mean);
+        assert!(
+            na < nb,
+            "level of {n}: normal mean {na}° refitted, {nb}° not"
+        );
+    }
+}

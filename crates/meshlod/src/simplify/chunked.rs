@@ -246,15 +246,8 @@ pub(super) fn simplify_chunked(
         None => refine(mesh, options, &mut out, &vertex_source, None, passes, diag),
     };
     drop(tree);
-    let refit = if options.refit_attributes && !out.attributes.is_empty() {
-        let locked: Vec<bool> = match &options.locked_vertices {
-            Some(l) => vertex_source.iter().map(|&s| l[s as usize]).collect(),
-            None => Vec::new(),
-        };
-        super::refit::refit_attributes(mesh, &mut out, &locked)
-    } else {
-        0
-    };
+    // The chunks always collapse (the target is a quarter of the input at most).
+    let refit = super::refit_output(mesh, options, &mut out, &vertex_source, 1);
     let phases = Phases {
         build: (t_chunks - t_build).as_secs_f64() + global.build,
         decimate: (t_merge - t_chunks).as_secs_f64() + global.decimate,

@@ -143,6 +143,7 @@ pub fn simplify_levels(
             diag,
             tree.as_ref(),
         );
+        let refit = super::refit_output(mesh, options, &mut out, &vertex_source, outcome.collapses);
         phases.refine = t_refine.elapsed().as_secs_f64();
         let mut report = assemble_report(
             mesh,
@@ -159,6 +160,7 @@ pub fn simplify_levels(
             Some((nm_in, None)),
         );
         report.seconds += seconds;
+        report.attributes_refit = refit;
         LevelOutput {
             simplified: Simplified {
                 mesh: out,

@@ -246,8 +246,8 @@ pub(super) fn simplify_chunked(
         None => refine(mesh, options, &mut out, &vertex_source, None, passes, diag),
     };
     drop(tree);
-    // The chunks always collapse (the target is a quarter of the input at most).
-    let refit = super::refit_output(mesh, options, &mut out, &vertex_source, 1);
+    let collapses = outcome.collapses + results.iter().map(|r| r.outcome.collapses).sum::<usize>();
+    let refit = super::refit_output(mesh, options, &mut out, &vertex_source, collapses);
     let phases = Phases {
         build: (t_chunks - t_build).as_secs_f64() + global.build,
         decimate: (t_merge - t_chunks).as_secs_f64() + global.decimate,

@@ -45,7 +45,7 @@
 //!   that stream, so a UV seam does not become a normal crease. A sample whose value
 //!   is not finite pulls nothing.
 
-use crate::mesh::Mesh;
+use crate::mesh::{Mesh, Weld};
 use crate::metrics::bvh::Bvh;
 use crate::metrics::f64v;
 use crate::metrics::triangle::{barycentric, closest_point, cross, dist2, dot, sub, Region, V3};
@@ -86,6 +86,14 @@ const UV1: usize = 2;
 fn face_normal(m: &Mesh, t: usize) -> V3 {
     let [a, b, c] = m.triangles[t].map(|v| f64v(m.positions[v as usize]));
     cross(sub(b, a), sub(c, a))
+}
+
+/// Scales `v` to unit length (a zero vector stays zero).
+fn normalise(v: &mut [f64]) {
+    let l = v.iter().map(|x| x * x).sum::<f64>().sqrt();
+    if l > 0.0 {
+        v.iter_mut().for_each(|x| *x /= l);
+    }
 }
 
 fn bary32(b: [f64; 3]) -> [f32; 3] {
@@ -158,20 +166,25 @@ pub(crate) fn refit_attributes(input: &Mesh, out: &mut Mesh, locked: &[bool]) ->
     let diag = out.bbox_diagonal();
     let eps = 1e-6 * diag;
     let out_ref: &Mesh = out;
-    let pairs: Vec<Pair> = (0..input.triangles.len() as u32)
-        .collect::<Vec<u32>>()
-        .par_chunks(2048)
-        .flat_map_iter(|chunk| {
+    const CHUNK: usize = 2048;
+    let pairs: Vec<Pair> = input
+        .triangles
+        .par_chunks(CHUNK)
+        .enumerate()
+        .flat_map_iter(|(c, chunk)| {
             let mut hint = None;
-            let mut made = Vec::with_capacity(chunk.len());
-            for &t in chunk {
-                made.push(pair(
-                    input, out_ref, &bvh, t, &mut hint, eps, &si, &so, &present,
-                ));
-            }
-            made
+            let mut cands = Vec::new();
+            (0..chunk.len())
+                .map(|j| {
+                    let t = (c * CHUNK + j) as u32;
+                    let scratch = (&mut hint, &mut cands);
+                    pair(input, out_ref, &bvh, t, scratch, eps, &si, &so, &present)
+                })
+                .collect::<Vec<_>>()
         })
         .collect();
+    // One point per position, for the wedge groups of each stream.
+    let weld = Weld::exact(&out.positions);
     let nv = out.positions.len();
     let mut changed = vec![false; nv];
     for &k in &present {
@@ -188,10 +201,12 @@ pub(crate) fn refit_attributes(input: &Mesh, out: &mut Mesh, locked: &[bool]) ->
                 a
             })
             .collect();
-        let x0: Vec<f64> = so_values(out, k);
+        let x0: Vec<f64> = streams(out)[k].as_ref().map_or_else(Vec::new, |s| {
+            s.values.iter().map(|&x| f64::from(x)).collect()
+        });
         // Wedges at one point with the same value of this stream are one unknown:
         // a UV seam does not become a normal crease, nor a crease a UV seam.
-        let group = same_value_groups(out, &x0, d);
+        let group = same_value_groups(&weld, &x0, d);
         let tris: Vec<[u32; 3]> = out
             .triangles
             .iter()
@@ -228,12 +243,7 @@ pub(crate) fn refit_attributes(input: &Mesh, out: &mut Mesh, locked: &[bool]) ->
             // squares toward the mean distance, not its square).
             let mut xs = x.clone();
             if k == NORMAL {
-                for v in 0..nv {
-                    let l = (0..3).map(|j| xs[v * 3 + j].powi(2)).sum::<f64>().sqrt();
-                    if l > 0.0 {
-                        (0..3).for_each(|j| xs[v * 3 + j] /= l);
-                    }
-                }
+                xs.chunks_exact_mut(3).for_each(normalise);
             }
             let mut res = vec![0.0f64; pairs.len()];
             for (i, p) in pairs.iter().enumerate() {
@@ -250,12 +260,8 @@ pub(crate) fn refit_attributes(input: &Mesh, out: &mut Mesh, locked: &[bool]) ->
                 }
                 let mut target = targets[i];
                 if k == NORMAL {
-                    for u in [&mut v, &mut target] {
-                        let l = (0..3).map(|j| u[j].powi(2)).sum::<f64>().sqrt();
-                        if l > 0.0 {
-                            (0..3).for_each(|j| u[j] /= l);
-                        }
-                    }
+                    normalise(&mut v[..3]);
+                    normalise(&mut target[..3]);
                 }
                 let r = (0..d)
                     .map(|j| (v[j] - target[j]).powi(2))
@@ -314,7 +320,7 @@ fn pair(
     out: &Mesh,
     bvh: &Bvh,
     t: u32,
-    hint: &mut Option<u32>,
+    (hint, cands): (&mut Option<u32>, &mut Vec<(u32, [f32; 3])>),
     eps: f64,
     si: &[Option<Stream<'_>>; STREAMS],
     so: &[Option<Stream<'_>>; STREAMS],
@@ -337,7 +343,7 @@ fn pair(
     let tri = |i: u32| out.triangles[i as usize].map(|v| f64v(out.positions[v as usize]));
     // Candidates: the closest triangle and, where the closest point is on an edge or
     // a corner, every triangle as near.
-    let mut cands: Vec<(u32, [f32; 3])> = Vec::with_capacity(4);
+    cands.clear();
     let [a0, b0, c0] = tri(c.triangle);
     let (_, region) = closest_point(p, a0, b0, c0);
     if region == Region::Face {
@@ -377,7 +383,7 @@ fn pair(
         let d = s_in.dim;
         s_in.interp(input, t, b, k == NORMAL, &mut sample[..d]);
         let mut best: Option<(f64, u32, [f32; 3])> = None;
-        for &(i, bo) in &cands {
+        for &(i, bo) in cands.iter() {
             s_out.interp(out, i, bo, k == NORMAL, &mut cur[..d]);
             let diff: f64 = (0..d).map(|j| (cur[j] - sample[j]).powi(2)).sum();
             if k == UV0 || k == UV1 {
@@ -548,36 +554,19 @@ fn solve(
     (x, fixed)
 }
 
-/// Per vertex of `out`, the first vertex at the same position with the same value
+/// Per vertex, the first vertex at the same point (`weld`) with the same value
 /// (`d` floats of `x`) of the stream: one unknown of the solve.
-fn same_value_groups(out: &Mesh, x: &[f64], d: usize) -> Vec<u32> {
-    let mut first = std::collections::HashMap::with_capacity(out.positions.len());
-    (0..out.positions.len())
+fn same_value_groups(weld: &Weld, x: &[f64], d: usize) -> Vec<u32> {
+    let mut first = std::collections::HashMap::with_capacity(weld.point_of.len());
+    let mut bits = [0u64; 4];
+    (0..weld.point_of.len())
         .map(|v| {
-            let key = (
-                out.positions[v].map(|c| (c + 0.0).to_bits()),
-                [0, 1, 2, 3].map(|j| {
-                    if j < d {
-                        (x[v * d + j] + 0.0).to_bits()
-                    } else {
-                        0
-                    }
-                }),
-            );
-            *first.entry(key).or_insert(v as u32)
+            for (b, &c) in bits.iter_mut().zip(&x[v * d..(v + 1) * d]) {
+                *b = (c + 0.0).to_bits();
+            }
+            *first.entry((weld.point_of[v], bits)).or_insert(v as u32)
         })
         .collect()
-}
-
-fn so_values(m: &Mesh, k: usize) -> Vec<f64> {
-    let a = &m.attributes;
-    let v: Vec<f32> = match k {
-        0 => a.normals.as_ref().unwrap().as_flattened().to_vec(),
-        1 => a.uv0.as_ref().unwrap().as_flattened().to_vec(),
-        2 => a.uv1.as_ref().unwrap().as_flattened().to_vec(),
-        _ => a.colors.as_ref().unwrap().as_flattened().to_vec(),
-    };
-    v.into_iter().map(f64::from).collect()
 }
 
 fn store(m: &mut Mesh, k: usize, x: &[f64], fixed: &[bool], changed: &mut [bool]) {

@@ -921,7 +921,7 @@ pub fn simplify_observed(
     };
     let Decimated {
         mut out,
-        vertex_source,
+        mut vertex_source,
         merged_into,
         outcome,
         repair,
@@ -939,12 +939,18 @@ pub fn simplify_observed(
         passes,
         diag,
     );
-    let refit = refit_output(mesh, options, &mut out, &vertex_source, outcome.collapses);
+    let refit = refit_output(
+        mesh,
+        options,
+        &mut out,
+        &mut vertex_source,
+        outcome.collapses,
+    );
     phases.refine = t_refine.elapsed().as_secs_f64();
     let mut report = assemble_report(
         mesh, options, target, &out, outcome, &repair, diag, fitted, facing, phases, start, census,
     );
-    report.attributes_refit = refit;
+    report.attributes_refit = refit.0;
     Ok(Simplified {
         mesh: out,
         report,
@@ -956,27 +962,34 @@ pub fn simplify_observed(
 /// where it applies: QEM that collapsed something, an output with attributes, not
 /// endpoint placement (no vertex changes there, attributes included: what a
 /// progressive mesh's vertex splits restore). Output vertices descending from a
-/// locked input vertex keep their values. Returns the vertices changed.
+/// locked input vertex keep their values. Vertices copied to split a crossed crease
+/// are appended to `out` and to `vertex_source` (their source's source). Returns the
+/// vertices changed and, for each copy in order, the vertex it copies.
 pub(crate) fn refit_output(
     mesh: &Mesh,
     options: &SimplifyOptions,
     out: &mut Mesh,
-    vertex_source: &[u32],
+    vertex_source: &mut Vec<u32>,
     collapses: usize,
-) -> usize {
+) -> (usize, Vec<u32>) {
     if !options.refit_attributes
         || options.method != Method::Qem
         || options.placement == Placement::Endpoint
         || collapses == 0
         || out.attributes.is_empty()
     {
-        return 0;
+        return (0, Vec::new());
     }
     let locked: Vec<bool> = match &options.locked_vertices {
         Some(l) => vertex_source.iter().map(|&s| l[s as usize]).collect(),
         None => Vec::new(),
     };
-    refit::refit_attributes(mesh, out, &locked)
+    let (changed, copies) = refit::refit_attributes(mesh, out, &locked);
+    if vertex_source.len() + copies.len() == out.positions.len() {
+        let more: Vec<u32> = copies.iter().map(|&c| vertex_source[c as usize]).collect();
+        vertex_source.extend(more);
+    }
+    (changed, copies)
 }
 
 /// The [`Report`] of an edge-collapse or vertex-removal run of `mesh` to `out`.

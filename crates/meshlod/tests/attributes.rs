@@ -327,6 +327,14 @@ proptest! {
     }
 }
 
+/// Each triangle's corners by position.
+fn corners(m: &Mesh) -> Vec<[[f32; 3]; 3]> {
+    m.triangles
+        .iter()
+        .map(|t| t.map(|v| m.positions[v as usize]))
+        .collect()
+}
+
 /// The attribute refit (on by default) brings the Duck's output normals and UVs
 /// closer to the input's at corresponding points than the collapses' values, at the
 /// same geometry: at 10%, the mean normal angle fell from 6.32° to 5.61° when this
@@ -339,8 +347,10 @@ fn refit_lowers_the_ducks_attribute_deviation() {
     let off = on.clone().with_refit_attributes(false);
     let (a, ra) = simplify(duck, &on).expect("valid");
     let (b, rb) = simplify(duck, &off).expect("valid");
-    assert_eq!(a.positions, b.positions, "the refit moves no point");
-    assert_eq!(a.triangles, b.triangles);
+    // The refit moves no point and changes no triangle (it may copy a vertex to
+    // split a crossed crease: the same corners by position).
+    assert_eq!(corners(&a), corners(&b), "the same geometry");
+    assert!(a.positions.len() >= b.positions.len());
     assert!(
         ra.attributes_refit > a.positions.len() / 2,
         "{}",
@@ -388,6 +398,9 @@ fn levels_in_one_run_are_refitted() {
     assert_eq!(on.len(), 2);
     let s = SamplingOptions::default();
     for (a, b) in on.iter().zip(&off) {
+        if !a.morph_from.is_empty() {
+            assert_eq!(a.morph_from.len(), a.simplified.mesh.positions.len());
+        }
         let (a, b) = (&a.simplified, &b.simplified);
         let n = a.mesh.triangles.len();
         assert!(
@@ -395,8 +408,12 @@ fn levels_in_one_run_are_refitted() {
             "level of {n}: nothing refitted"
         );
         assert_eq!(b.report.attributes_refit, 0);
-        assert_eq!(a.mesh.positions, b.mesh.positions, "level of {n}");
-        assert_eq!(a.mesh.triangles, b.mesh.triangles, "level of {n}");
+        assert_eq!(corners(&a.mesh), corners(&b.mesh), "level of {n}");
+        assert_eq!(
+            a.vertex_source.len(),
+            a.mesh.positions.len(),
+            "level of {n}"
+        );
         let da = meshlod::metrics::appearance::appearance(duck, &a.mesh, &s).expect("attributes");
         let db = meshlod::metrics::appearance::appearance(duck, &b.mesh, &s).expect("attributes");
         let (na, nb) = (da.normal_deg.unwrap().mean, db.normal_deg.unwrap().mean);

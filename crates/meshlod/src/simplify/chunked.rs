@@ -222,7 +222,7 @@ pub(super) fn simplify_chunked(
         census,
         ..
     } = d;
-    let vertex_source: Vec<u32> = vertex_source.iter().map(|&v| source[v as usize]).collect();
+    let mut vertex_source: Vec<u32> = vertex_source.iter().map(|&v| source[v as usize]).collect();
     drop(source);
     let t_refine = Instant::now();
     let passes = Passes {
@@ -247,7 +247,7 @@ pub(super) fn simplify_chunked(
     };
     drop(tree);
     let collapses = outcome.collapses + results.iter().map(|r| r.outcome.collapses).sum::<usize>();
-    let refit = super::refit_output(mesh, options, &mut out, &vertex_source, collapses);
+    let (refit, _) = super::refit_output(mesh, options, &mut out, &mut vertex_source, collapses);
     let phases = Phases {
         build: (t_chunks - t_build).as_secs_f64() + global.build,
         decimate: (t_merge - t_chunks).as_secs_f64() + global.decimate,

@@ -122,8 +122,8 @@ pub fn simplify_levels(
         let t_refine = Instant::now();
         let Raw {
             mut out,
-            vertex_source,
-            morph_from,
+            mut vertex_source,
+            mut morph_from,
             outcome,
             at_most,
             mut phases,
@@ -143,7 +143,17 @@ pub fn simplify_levels(
             diag,
             tree.as_ref(),
         );
-        let refit = super::refit_output(mesh, options, &mut out, &vertex_source, outcome.collapses);
+        let (refit, copies) = super::refit_output(
+            mesh,
+            options,
+            &mut out,
+            &mut vertex_source,
+            outcome.collapses,
+        );
+        if morph_from.len() + copies.len() == out.positions.len() {
+            let more: Vec<[f32; 3]> = copies.iter().map(|&c| morph_from[c as usize]).collect();
+            morph_from.extend(more);
+        }
         phases.refine = t_refine.elapsed().as_secs_f64();
         let mut report = assemble_report(
             mesh,

@@ -44,12 +44,17 @@
 //!   vertices. Wedges at one point with the same value of a stream are one unknown of
 //!   that stream, so a UV seam does not become a normal crease. A sample whose value
 //!   is not finite pulls nothing.
+//! - **Crossed creases.** Before the normals are solved, a normal wedge whose
+//!   triangles cover both sides of a hard crease of the input is split in two (the
+//!   `creases` module): each side then gets its own normal.
 
 use crate::mesh::{Mesh, Weld};
 use crate::metrics::bvh::Bvh;
 use crate::metrics::f64v;
 use crate::metrics::triangle::{barycentric, closest_point, cross, dist2, dot, sub, Region, V3};
 use rayon::prelude::*;
+
+mod creases;
 
 /// The centroid of an input triangle (the one of the same index) paired with the
 /// output: 68 bytes.
@@ -152,15 +157,18 @@ fn streams(m: &Mesh) -> [Option<Stream<'_>>; STREAMS] {
 
 /// Refits the attribute values of `out` (normals, texture coordinates, colours) to
 /// those of `input` at corresponding points; `locked` vertices of `out` keep theirs.
-/// Returns the number of output vertices whose values changed.
-pub(crate) fn refit_attributes(input: &Mesh, out: &mut Mesh, locked: &[bool]) -> usize {
+/// Where the output crosses a hard crease of the input, normal wedges are split
+/// first (the `creases` module): the copies are appended to `out`'s vertices.
+/// Returns the number of output vertices whose values changed and, for each copy in
+/// order, the vertex it copies.
+pub(crate) fn refit_attributes(input: &Mesh, out: &mut Mesh, locked: &[bool]) -> (usize, Vec<u32>) {
     let si = streams(input);
     let so = streams(out);
     let present: Vec<usize> = (0..STREAMS)
         .filter(|&k| si[k].is_some() && so[k].is_some())
         .collect();
     if present.is_empty() || out.triangles.is_empty() || input.triangles.is_empty() {
-        return 0;
+        return (0, Vec::new());
     }
     let bvh = Bvh::build(&out.positions, &out.triangles);
     let diag = out.bbox_diagonal();
@@ -183,6 +191,14 @@ pub(crate) fn refit_attributes(input: &Mesh, out: &mut Mesh, locked: &[bool]) ->
                 .collect::<Vec<_>>()
         })
         .collect();
+    // Crossed creases split into wedges of their own (normals only): `side` keeps
+    // the two sides of a split apart in the normal stream's unknowns.
+    let mut side = Vec::new();
+    let copies = if present.contains(&NORMAL) {
+        creases::split_creases(input, out, &pairs, locked, &mut side)
+    } else {
+        Vec::new()
+    };
     // One point per position, for the wedge groups of each stream.
     let weld = Weld::exact(&out.positions);
     let nv = out.positions.len();
@@ -206,7 +222,8 @@ pub(crate) fn refit_attributes(input: &Mesh, out: &mut Mesh, locked: &[bool]) ->
         });
         // Wedges at one point with the same value of this stream are one unknown:
         // a UV seam does not become a normal crease, nor a crease a UV seam.
-        let group = same_value_groups(&weld, &x0, d);
+        let sides = if k == NORMAL { side.as_slice() } else { &[] };
+        let group = same_value_groups(&weld, &x0, d, sides);
         let tris: Vec<[u32; 3]> = out
             .triangles
             .iter()
@@ -310,7 +327,7 @@ pub(crate) fn refit_attributes(input: &Mesh, out: &mut Mesh, locked: &[bool]) ->
             }
         }
     }
-    changed.iter().filter(|&&c| c).count()
+    (changed.iter().filter(|&&c| c).count(), copies)
 }
 
 /// Pairs input triangle `t`'s centroid with the output (see the module docs).
@@ -555,8 +572,9 @@ fn solve(
 }
 
 /// Per vertex, the first vertex at the same point (`weld`) with the same value
-/// (`d` floats of `x`) of the stream: one unknown of the solve.
-fn same_value_groups(weld: &Weld, x: &[f64], d: usize) -> Vec<u32> {
+/// (`d` floats of `x`) of the stream and the same `side` (none when empty): one
+/// unknown of the solve.
+fn same_value_groups(weld: &Weld, x: &[f64], d: usize, side: &[u32]) -> Vec<u32> {
     let mut first = std::collections::HashMap::with_capacity(weld.point_of.len());
     let mut bits = [0u64; 4];
     (0..weld.point_of.len())
@@ -564,7 +582,8 @@ fn same_value_groups(weld: &Weld, x: &[f64], d: usize) -> Vec<u32> {
             for (b, &c) in bits.iter_mut().zip(&x[v * d..(v + 1) * d]) {
                 *b = (c + 0.0).to_bits();
             }
-            *first.entry((weld.point_of[v], bits)).or_insert(v as u32)
+            let s = side.get(v).copied().unwrap_or(0);
+            *first.entry((weld.point_of[v], bits, s)).or_insert(v as u32)
         })
         .collect()
 }
@@ -690,7 +709,7 @@ mod tests {
         let perturbed = uv.clone();
         let mut locked = vec![false; out.positions.len()];
         locked[0] = true;
-        let changed = refit_attributes(&input, &mut out, &locked);
+        let (changed, _) = refit_attributes(&input, &mut out, &locked);
         assert!(changed > out.positions.len() / 2, "{changed} changed");
         let uv = out.attributes.uv0.as_ref().expect("uv kept");
         assert_eq!(uv[0], perturbed[0], "a locked vertex keeps its value");
@@ -764,7 +783,8 @@ mod tests {
         }
         let before = angle(&out);
         assert!(before > 5.0, "perturbation {before}°");
-        refit_attributes(&input, &mut out, &[]);
+        let (_, copies) = refit_attributes(&input, &mut out, &[]);
+        assert!(copies.is_empty(), "a smooth input is never split");
         let after = angle(&out);
         assert!(after < before / 3.0, "{before}° -> {after}°");
     }
@@ -793,7 +813,7 @@ mod tests {
             }
         }
         assert!(seam.len() >= 10, "{} seam points", seam.len());
-        assert!(refit_attributes(&input, &mut out, &[]) > 0);
+        assert!(refit_attributes(&input, &mut out, &[]).0 > 0);
         let n = out.attributes.normals.as_ref().expect("normals kept");
         let uv = out.attributes.uv0.as_ref().expect("uv kept");
         for &(a, b) in &seam {
@@ -817,15 +837,99 @@ mod tests {
         );
     }
 
+    /// A roof: two planes meeting at a ridge (`x = 1`) at a right angle, the input
+    /// finely meshed with a hard crease (each side its own normal, two wedges per
+    /// ridge point); the output is the coarse roof whose ridge points have one
+    /// normal each, as after a collapse crossed the crease:
+    ///
+    /// ```text
+    ///  y=1  3-------4-------5      z = -|x - 1|
+    ///       | \  left | \ right|     left normal  (-1, 0, 1)/√2
+    ///       |   \     |   \    |     right normal ( 1, 0, 1)/√2
+    ///  y=0  0-------1-------2
+    ///      x=0     x=1     x=2
+    /// ```
+    ///
+    /// The refit splits each ridge point into two wedges, and each side's normals
+    /// come back to within 5° of its plane's (one normal shared by both sides is at
+    /// least 45° from one of them).
+    #[test]
+    fn a_crossed_crease_is_split_again() {
+        let n = 8;
+        let mut positions = Vec::new();
+        let mut normals = Vec::new();
+        let mut triangles = Vec::new();
+        for (x0, nx) in [(0.0f32, -1.0f32), (1.0, 1.0)] {
+            let base = positions.len() as u32;
+            for j in 0..=n {
+                for i in 0..=n {
+                    let x = x0 + i as f32 / n as f32;
+                    let y = j as f32 / n as f32;
+                    positions.push([x, y, -(x - 1.0).abs()]);
+                    normals.push([
+                        nx * std::f32::consts::FRAC_1_SQRT_2,
+                        0.0,
+                        std::f32::consts::FRAC_1_SQRT_2,
+                    ]);
+                }
+            }
+            let at = |i: u32, j: u32| base + j * (n + 1) + i;
+            for j in 0..n {
+                for i in 0..n {
+                    triangles.push([at(i, j), at(i + 1, j), at(i + 1, j + 1)]);
+                    triangles.push([at(i, j), at(i + 1, j + 1), at(i, j + 1)]);
+                }
+            }
+        }
+        let mut input = Mesh::from_triangles(positions, triangles);
+        input.attributes.normals = Some(normals);
+        let mut out = Mesh::from_triangles(
+            vec![
+                [0.0, 0.0, -1.0],
+                [1.0, 0.0, 0.0],
+                [2.0, 0.0, -1.0],
+                [0.0, 1.0, -1.0],
+                [1.0, 1.0, 0.0],
+                [2.0, 1.0, -1.0],
+            ],
+            vec![[0, 1, 4], [0, 4, 3], [1, 2, 5], [1, 5, 4]],
+        );
+        out.attributes.normals = Some(vec![[0.0, 0.0, 1.0]; 6]);
+        let (_, copies) = refit_attributes(&input, &mut out, &[]);
+        let mut copied = copies.clone();
+        copied.sort_unstable();
+        assert_eq!(copied, vec![1, 4], "the ridge points are split");
+        assert_eq!(out.positions.len(), 8);
+        out.validate().expect("valid");
+        let nrm = out.attributes.normals.as_ref().expect("normals kept");
+        for (t, tri) in out.triangles.iter().enumerate() {
+            let side = if t < 2 { -1.0 } else { 1.0 };
+            for &v in tri {
+                let m = nrm[v as usize];
+                let c = (side * m[0] + m[2]) * std::f32::consts::FRAC_1_SQRT_2;
+                let deg = f64::from(c.clamp(-1.0, 1.0)).acos().to_degrees();
+                assert!(deg < 5.0, "triangle {t}, vertex {v}: {deg}° from its plane");
+            }
+        }
+        // Locked ridge points stay one wedge.
+        let mut out2 = out.clone();
+        out2.triangles = vec![[0, 1, 4], [0, 4, 3], [1, 2, 5], [1, 5, 4]];
+        out2.positions.truncate(6);
+        out2.attributes = out2.attributes.gather(&[0, 1, 2, 3, 4, 5]);
+        let (_, copies) =
+            refit_attributes(&input, &mut out2, &[false, true, false, false, true, false]);
+        assert!(copies.is_empty());
+    }
+
     /// Nothing to fit: no attributes, or an empty output.
     #[test]
     fn nothing_to_fit() {
         let input = generate::icosphere(2);
         let mut out = input.clone();
-        assert_eq!(refit_attributes(&input, &mut out, &[]), 0);
+        assert_eq!(refit_attributes(&input, &mut out, &[]), (0, Vec::new()));
         let mut empty = Mesh::from_triangles(Vec::new(), Vec::new());
         let mut with = two_charts();
-        assert_eq!(refit_attributes(&with, &mut empty, &[]), 0);
+        assert_eq!(refit_attributes(&with, &mut empty, &[]), (0, Vec::new()));
         let copy = with.clone();
         // The input fits itself: no value moves by more than rounding.
         refit_attributes(&copy, &mut with, &[]);

@@ -985,10 +985,9 @@ pub(crate) fn refit_output(
         None => Vec::new(),
     };
     let (changed, copies) = refit::refit_attributes(mesh, out, &locked);
-    if vertex_source.len() + copies.len() == out.positions.len() {
-        let more: Vec<u32> = copies.iter().map(|&c| vertex_source[c as usize]).collect();
-        vertex_source.extend(more);
-    }
+    let more: Vec<u32> = copies.iter().map(|&c| vertex_source[c as usize]).collect();
+    vertex_source.extend(more);
+    debug_assert_eq!(vertex_source.len(), out.positions.len());
     (changed, copies)
 }
 

@@ -150,10 +150,9 @@ pub fn simplify_levels(
             &mut vertex_source,
             outcome.collapses,
         );
-        if morph_from.len() + copies.len() == out.positions.len() {
-            let more: Vec<[f32; 3]> = copies.iter().map(|&c| morph_from[c as usize]).collect();
-            morph_from.extend(more);
-        }
+        let more: Vec<[f32; 3]> = copies.iter().map(|&c| morph_from[c as usize]).collect();
+        morph_from.extend(more);
+        debug_assert_eq!(morph_from.len(), out.positions.len());
         phases.refine = t_refine.elapsed().as_secs_f64();
         let mut report = assemble_report(
             mesh,

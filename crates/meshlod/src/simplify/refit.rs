@@ -193,14 +193,15 @@ pub(crate) fn refit_attributes(input: &Mesh, out: &mut Mesh, locked: &[bool]) ->
         .collect();
     // Crossed creases split into wedges of their own (normals only): `side` keeps
     // the two sides of a split apart in the normal stream's unknowns.
+    // One point per position, for the crease split and the wedge groups of each
+    // stream.
+    let mut weld = Weld::exact(&out.positions);
     let mut side = Vec::new();
     let copies = if present.contains(&NORMAL) {
-        creases::split_creases(input, out, &pairs, locked, &mut side)
+        creases::split_creases(input, out, &pairs, locked, &mut weld, &mut side)
     } else {
         Vec::new()
     };
-    // One point per position, for the wedge groups of each stream.
-    let weld = Weld::exact(&out.positions);
     let nv = out.positions.len();
     let mut changed = vec![false; nv];
     for &k in &present {
@@ -919,6 +920,123 @@ mod tests {
         let (_, copies) =
             refit_attributes(&input, &mut out2, &[false, true, false, false, true, false]);
         assert!(copies.is_empty());
+    }
+
+    /// The crease split is local: a smooth roof (the ridge's normals shared, so no
+    /// crease there) with a wall rising along its back edge (`y = 1`, a hard crease
+    /// of 90° all along it). In the coarse output every point has one normal:
+    ///
+    /// ```text
+    ///            wall: 6 --- 7 --- 8   (above 3, 4, 5)
+    ///  y=1  3-------4-------5
+    ///       |  roof |  roof |         ridge 1-4 (smooth in the input)
+    ///  y=0  0-------1-------2
+    /// ```
+    ///
+    /// Points 3, 4, 5 get a wedge for the roof and one for the wall; point 4's two
+    /// roof sides stay one wedge (the ridge is a 90° bend of the coarse output, but
+    /// the input has no crease near its other end, point 1), and point 1 is not split.
+    #[test]
+    fn the_crease_split_is_local() {
+        let n = 8u32;
+        let s2 = std::f32::consts::FRAC_1_SQRT_2;
+        let mut positions = Vec::new();
+        let mut normals = Vec::new();
+        let mut triangles = Vec::new();
+        // Orients triangle `t` so that it faces along `d`.
+        let facing = |pos: &[[f32; 3]], t: [u32; 3], d: [f32; 3]| {
+            let [a, b, c] = t.map(|v| f64v(pos[v as usize]));
+            let f = cross(sub(b, a), sub(c, a));
+            if dot(f, d.map(f64::from)) >= 0.0 {
+                t
+            } else {
+                [t[0], t[2], t[1]]
+            }
+        };
+        // Roof: one grid over x in [0, 2], y in [0, 1]; normals per side, the ridge's
+        // shared (0, 0, 1).
+        let row = 2 * n + 1;
+        for j in 0..=n {
+            for i in 0..row {
+                let x = i as f32 / n as f32;
+                positions.push([x, j as f32 / n as f32, -(x - 1.0).abs()]);
+                normals.push(match i.cmp(&n) {
+                    std::cmp::Ordering::Less => [-s2, 0.0, s2],
+                    std::cmp::Ordering::Equal => [0.0, 0.0, 1.0],
+                    std::cmp::Ordering::Greater => [s2, 0.0, s2],
+                });
+            }
+        }
+        for j in 0..n {
+            for i in 0..row - 1 {
+                let at = |i: u32, j: u32| j * row + i;
+                for t in [
+                    [at(i, j), at(i + 1, j), at(i + 1, j + 1)],
+                    [at(i, j), at(i + 1, j + 1), at(i, j + 1)],
+                ] {
+                    triangles.push(facing(&positions, t, [0.0, 0.0, 1.0]));
+                }
+            }
+        }
+        // Wall: its own vertices along y = 1 (normal +y), rising by 1.
+        let base = positions.len() as u32;
+        for h in 0..=n {
+            for i in 0..row {
+                let x = i as f32 / n as f32;
+                positions.push([x, 1.0, -(x - 1.0).abs() + h as f32 / n as f32]);
+                normals.push([0.0, 1.0, 0.0]);
+            }
+        }
+        for h in 0..n {
+            for i in 0..row - 1 {
+                let at = |i: u32, h: u32| base + h * row + i;
+                for t in [
+                    [at(i, h), at(i + 1, h), at(i + 1, h + 1)],
+                    [at(i, h), at(i + 1, h + 1), at(i, h + 1)],
+                ] {
+                    triangles.push(facing(&positions, t, [0.0, 1.0, 0.0]));
+                }
+            }
+        }
+        let mut input = Mesh::from_triangles(positions, triangles);
+        input.attributes.normals = Some(normals);
+        let pos = vec![
+            [0.0, 0.0, -1.0],
+            [1.0, 0.0, 0.0],
+            [2.0, 0.0, -1.0],
+            [0.0, 1.0, -1.0],
+            [1.0, 1.0, 0.0],
+            [2.0, 1.0, -1.0],
+            [0.0, 1.0, 0.0],
+            [1.0, 1.0, 1.0],
+            [2.0, 1.0, 0.0],
+        ];
+        let up = [0.0, 0.0, 1.0];
+        let back = [0.0, 1.0, 0.0];
+        let tris = vec![
+            facing(&pos, [0, 1, 4], up),
+            facing(&pos, [0, 4, 3], up),
+            facing(&pos, [1, 2, 5], up),
+            facing(&pos, [1, 5, 4], up),
+            facing(&pos, [3, 4, 7], back),
+            facing(&pos, [3, 7, 6], back),
+            facing(&pos, [4, 5, 8], back),
+            facing(&pos, [4, 8, 7], back),
+        ];
+        let mut out = Mesh::from_triangles(pos, tris);
+        out.attributes.normals = Some(vec![[0.0, s2, s2]; 9]);
+        let (_, copies) = refit_attributes(&input, &mut out, &[]);
+        let mut copied = copies.clone();
+        copied.sort_unstable();
+        assert_eq!(copied, vec![3, 4, 5], "the wall's foot only");
+        out.validate().expect("valid");
+        // Point 4's roof corners share one wedge.
+        let roof_at_4: Vec<u32> = out.triangles[..4]
+            .iter()
+            .flat_map(|t| t.iter().copied())
+            .filter(|&v| out.positions[v as usize] == [1.0, 1.0, 0.0])
+            .collect();
+        assert!(roof_at_4.windows(2).all(|w| w[0] == w[1]), "{roof_at_4:?}");
     }
 
     /// Nothing to fit: no attributes, or an empty output.

@@ -1,70 +1,85 @@
 //! Hard creases of the input restored in the output's normals.
 //!
 //! A collapse may cross a hard crease of the input (a line where the normal is
-//! discontinuous: two wedges with different normals at each of its points) when
-//! keeping it costs more than crossing it. One vertex normal then serves both sides
-//! and the refit can only average them. Before the normals are refitted, each output
-//! point's triangles are grouped by the input normals they cover: two triangles
-//! sharing an edge at the point stay together unless both cover input triangles at a
-//! crease and the mean input normals they cover differ by more than
-//! [`CREASE_ANGLE_DEG`]. Where a normal wedge's triangles fall into several groups,
-//! each group gets a wedge of its own (a copy of the vertex: same position, UVs and
-//! colours), which the refit then fits to its side: the crease is back, as a normal
-//! seam, without moving a point or changing a triangle.
+//! discontinuous: wedges whose normals differ by more than [`CREASE_ANGLE_DEG`] at
+//! each of its points) when keeping it costs more than crossing it. One vertex normal
+//! then serves both sides and the refit can only average them. Before the normals are
+//! refitted, each output point's triangles are grouped by the input normals they
+//! cover: two triangles sharing an edge at the point (and a normal value) stay
+//! together unless, near both ends of that edge (the third of each triangle closest
+//! to the end), both cover input triangles at a crease, and the mean input normals
+//! of the two triangles differ by more than [`CREASE_ANGLE_DEG`]: the input's crease
+//! runs along the edge. (A coarse bend of a smooth surface next to a crease, such as
+//! a cylinder's side meeting its cap, stays smooth.) At a point where that cut
+//! anything, each group gets a normal wedge of its own: a vertex whose triangles fall
+//! into several groups is copied (same position, UVs and colours) and the refit fits
+//! each copy to its side. The crease is back, as a normal seam; no point moves, and
+//! each triangle keeps its corners' positions (some corners now name a copy).
 //!
-//! A smooth input (no point with two normals) is never split: the rule only puts back
-//! discontinuities the input had.
+//! A smooth input (no point with two normals that far apart) is never split: the rule
+//! only puts back discontinuities the input had, where the input had them.
 
 use super::{normalise, Pair, Stream, CENTROID, NORMAL};
 use crate::mesh::topology::UnionFind;
 use crate::mesh::{Mesh, Weld};
 use crate::metrics::triangle::dot;
+use std::collections::HashMap;
 
-/// Mean input normals of two neighbouring output triangles that differ by more than
-/// this (degrees), both covering a crease of the input, are split apart.
+/// Input wedges at one point whose normals differ by more than this (degrees) make
+/// a crease point; mean input normals of two neighbouring output triangles that
+/// differ by more than this are split apart.
 pub(super) const CREASE_ANGLE_DEG: f64 = 45.0;
-/// Two input wedges at one point whose normals differ by more than this (degrees)
-/// make the point a crease point.
-const DISCONTINUITY_DEG: f64 = 1.0;
 
 /// Splits `out`'s normal wedges across the input's hard creases (module docs).
-/// `pairs` are the input triangles' samples paired with `out`; vertices that are
-/// `locked` are not split, nor any wedge at their point. Copies of vertices are
-/// appended to `out`; returns, for each copy in order, the vertex it copies, and
-/// sets `side` (one entry per vertex of `out`, extended for the copies) to a label
-/// that differs between the sides of a split.
+/// `pairs` are the input triangles' samples paired with `out`; `weld` is `out`'s
+/// exact weld (its points), extended here for the copies; no wedge is split at a
+/// point with a `locked` vertex. Copies are appended to `out`; returns, for each copy
+/// in order, the vertex it copies, and sets `side` (one entry per vertex of `out`,
+/// extended for the copies) to a label that differs between the groups of a split
+/// point (0 elsewhere).
 pub(super) fn split_creases(
     input: &Mesh,
     out: &mut Mesh,
     pairs: &[Pair],
     locked: &[bool],
+    weld: &mut Weld,
     side: &mut Vec<u32>,
 ) -> Vec<u32> {
     let (Some(n_in), Some(n_out)) = (&input.attributes.normals, &out.attributes.normals) else {
         return Vec::new();
     };
-    // Input points with a normal discontinuity.
+    let cos_crease = CREASE_ANGLE_DEG.to_radians().cos();
+    // Input points with a hard crease: a wedge's normal that far from the point's
+    // first non-zero one.
     let wi = Weld::exact(&input.positions);
-    let cos_disc = DISCONTINUITY_DEG.to_radians().cos();
+    let mut first = vec![u32::MAX; wi.representative.len()];
     let mut crease_point = vec![false; wi.representative.len()];
     for (v, &p) in wi.point_of.iter().enumerate() {
-        let r = wi.representative[p as usize] as usize;
-        if v != r && cos_between(n_in[v], n_in[r]) < cos_disc {
+        let n = n_in[v];
+        if n == [0.0; 3] {
+            continue;
+        }
+        let f = &mut first[p as usize];
+        if *f == u32::MAX {
+            *f = v as u32;
+        } else if cos_between(n, n_in[*f as usize]) < cos_crease {
             crease_point[p as usize] = true;
         }
     }
+    drop(first);
     if !crease_point.contains(&true) {
         return Vec::new();
     }
     // Per output triangle: the area-weighted mean of the input normals its samples
-    // carry, and whether any of them comes from an input triangle at a crease.
+    // carry, and per corner whether a sample in the third of the triangle nearest it
+    // comes from an input triangle at a crease.
     let s_in = Stream {
         values: n_in.as_flattened(),
         dim: 3,
     };
     let nt = out.triangles.len();
     let mut mean = vec![[0.0f64; 3]; nt];
-    let mut at_crease = vec![false; nt];
+    let mut at_crease = vec![[false; 3]; nt];
     for (t, p) in pairs.iter().enumerate() {
         let o = p.triangle[NORMAL];
         if o == u32::MAX {
@@ -81,27 +96,32 @@ pub(super) fn split_creases(
         for j in 0..3 {
             m[j] += w * a[j];
         }
-        at_crease[o as usize] |= input.triangles[t]
+        if input.triangles[t]
             .iter()
-            .any(|&v| crease_point[wi.point_of[v as usize] as usize]);
+            .any(|&v| crease_point[wi.point_of[v as usize] as usize])
+        {
+            for (c, &b) in p.bary[NORMAL].iter().enumerate() {
+                at_crease[o as usize][c] |= b >= 1.0 / 3.0;
+            }
+        }
     }
+    drop(wi);
     mean.iter_mut().for_each(|m| normalise(m));
-    let cos_crease = CREASE_ANGLE_DEG.to_radians().cos();
-    let crease = |a: usize, b: usize| {
-        at_crease[a]
-            && at_crease[b]
+    let crease = |(ta, ka): (u32, u8), (tb, kb): (u32, u8)| {
+        let (a, b) = (ta as usize, tb as usize);
+        at_crease[a][ka as usize]
+            && at_crease[b][kb as usize]
             && mean[a] != [0.0; 3]
             && mean[b] != [0.0; 3]
             && dot(mean[a], mean[b]) < cos_crease
     };
 
     // The corners at each output point (counting sort by point).
-    let wo = Weld::exact(&out.positions);
-    let np = wo.representative.len();
+    let np = weld.representative.len();
     let mut start = vec![0u32; np + 1];
     for t in &out.triangles {
         for &v in t {
-            start[wo.point_of[v as usize] as usize + 1] += 1;
+            start[weld.point_of[v as usize] as usize + 1] += 1;
         }
     }
     for i in 0..np {
@@ -111,22 +131,25 @@ pub(super) fn split_creases(
     let mut corners = vec![(0u32, 0u8); nt * 3];
     for (t, tri) in out.triangles.iter().enumerate() {
         for (k, &v) in tri.iter().enumerate() {
-            let p = wo.point_of[v as usize] as usize;
+            let p = weld.point_of[v as usize] as usize;
             corners[fill[p] as usize] = (t as u32, k as u8);
             fill[p] += 1;
         }
     }
+    drop(fill);
 
     let nv = out.positions.len();
+    side.clear();
     side.resize(nv, 0);
-    let mut next_side = side.iter().copied().max().unwrap_or(0) + 1;
+    let mut next_side = 1u32;
     let mut copies: Vec<u32> = Vec::new();
+    // Per vertex, the group (global id of its first corner) that keeps it.
     let mut owner = vec![u32::MAX; nv];
-    let mut joined = UnionFind::new(0);
     let mut kept = UnionFind::new(0);
-    let mut edges: Vec<(u32, u32)> = Vec::new();
-    let mut copy_of: Vec<(u32, u32, u32)> = Vec::new();
+    let mut edges: Vec<(u32, u32, u8)> = Vec::new();
     let mut verts: Vec<u32> = Vec::new();
+    let mut labels: Vec<u32> = Vec::new();
+    let mut copy_of: HashMap<(u32, u32), u32> = HashMap::new();
     for p in 0..np {
         let cs = &corners[start[p] as usize..start[p + 1] as usize];
         let n = cs.len();
@@ -138,7 +161,6 @@ pub(super) fn split_creases(
             cs.iter()
                 .map(|&(t, k)| out.triangles[t as usize][k as usize]),
         );
-        let vert = |i: usize| verts[i];
         if verts
             .iter()
             .any(|&v| locked.get(v as usize).copied().unwrap_or(false))
@@ -152,32 +174,30 @@ pub(super) fn split_creases(
             let tri = out.triangles[t as usize];
             for d in [1, 2] {
                 // A corner copied at an earlier point is at its original's point.
-                let mut u = tri[(k as usize + d) % 3] as usize;
+                let kq = (k as usize + d) % 3;
+                let mut u = tri[kq] as usize;
                 if u >= nv {
                     u = copies[u - nv] as usize;
                 }
-                let o = wo.point_of[u];
-                edges.push((o, i as u32));
+                edges.push((weld.point_of[u], i as u32, kq as u8));
             }
         }
         edges.sort_unstable();
-        // `joined`: one normal value and a shared edge; `kept`: the same, and no
-        // crease between them.
-        joined.reset(n);
+        // Groups: one normal value and a shared edge, and no crease between them.
         kept.reset(n);
         let mut any_crease = false;
         for w in edges.windows(2) {
-            let ((oa, a), (ob, b)) = (w[0], w[1]);
+            let ((oa, a, qa), (ob, b, qb)) = (w[0], w[1]);
             if oa != ob || a == b {
                 continue;
             }
-            let (va, vb) = (vert(a as usize) as usize, vert(b as usize) as usize);
+            let (va, vb) = (verts[a as usize] as usize, verts[b as usize] as usize);
             if !same_normal(n_out[va], n_out[vb]) {
                 continue;
             }
-            joined.union(a, b);
-            let (ta, tb) = (cs[a as usize].0 as usize, cs[b as usize].0 as usize);
-            if crease(ta, tb) {
+            // A crease along the shared edge: at a crease near both of its ends.
+            let (ta, tb) = (cs[a as usize].0, cs[b as usize].0);
+            if crease(cs[a as usize], cs[b as usize]) && crease((ta, qa), (tb, qb)) {
                 any_crease = true;
             } else {
                 kept.union(a, b);
@@ -186,48 +206,30 @@ pub(super) fn split_creases(
         if !any_crease {
             continue;
         }
-        // A joined set split into several kept sets: the first (smallest corner)
-        // keeps its wedges, each other one gets a side of its own.
-        let mut is_first = vec![false; n];
-        let mut sides = vec![0u32; n];
-        for i in 0..n as u32 {
-            let (j, kr) = (joined.find(i), kept.find(i));
-            is_first[i as usize] = kr == j;
-            if kr == i && kr != j {
-                sides[i as usize] = next_side;
-                next_side += 1;
-            }
-        }
-        for (i, _) in is_first.iter().enumerate().filter(|(_, &f)| f) {
-            let v = vert(i) as usize;
-            if owner[v] == u32::MAX {
-                owner[v] = kept.find(i as u32) + start[p];
-            }
-        }
+        // Each group a wedge of its own: the first group to reach a vertex keeps
+        // it, the others get a copy (one per group and vertex).
+        labels.clear();
+        labels.resize(n, 0);
         copy_of.clear();
         for i in 0..n {
-            if is_first[i] {
-                continue;
-            }
             let kr = kept.find(i as u32);
+            if labels[kr as usize] == 0 {
+                labels[kr as usize] = next_side;
+                next_side += 1;
+            }
+            let label = labels[kr as usize];
             let id = kr + start[p];
-            let s = sides[kr as usize];
-            let v = vert(i);
-            let (t, k) = cs[i];
+            let v = verts[i];
             if owner[v as usize] == u32::MAX {
                 owner[v as usize] = id;
-                side[v as usize] = s;
+                side[v as usize] = label;
             } else if owner[v as usize] != id {
-                let c = match copy_of.iter().find(|&&(ov, ok, _)| ov == v && ok == kr) {
-                    Some(&(_, _, c)) => c,
-                    None => {
-                        let c = (nv + copies.len()) as u32;
-                        copies.push(v);
-                        side.push(s);
-                        copy_of.push((v, kr, c));
-                        c
-                    }
-                };
+                let c = *copy_of.entry((v, kr)).or_insert_with(|| {
+                    copies.push(v);
+                    side.push(label);
+                    (nv + copies.len() - 1) as u32
+                });
+                let (t, k) = cs[i];
                 out.triangles[t as usize][k as usize] = c;
             }
         }
@@ -236,6 +238,8 @@ pub(super) fn split_creases(
         let map: Vec<u32> = (0..nv as u32).chain(copies.iter().copied()).collect();
         out.positions = map.iter().map(|&v| out.positions[v as usize]).collect();
         out.attributes = out.attributes.gather(&map);
+        let more: Vec<u32> = copies.iter().map(|&c| weld.point_of[c as usize]).collect();
+        weld.point_of.extend(more);
     }
     copies
 }

@@ -922,24 +922,28 @@ mod tests {
         assert!(copies.is_empty());
     }
 
-    /// The crease split is local: a smooth roof (the ridge's normals shared, so no
-    /// crease there) with a wall rising along its back edge (`y = 1`, a hard crease
-    /// of 90° all along it). In the coarse output every point has one normal:
+    /// The crease split is local: a roof of two planes (`z = -|x - 1|`) shaded
+    /// smooth (the normal turns steadily from one plane's to the other's over
+    /// `0.5 ≤ x ≤ 1.5`) between two walls rising along its edges `y = 0` and
+    /// `y = 1` (hard creases of about 90° all along them). In the output every point
+    /// has one normal:
     ///
     /// ```text
     ///            wall: 6 --- 7 --- 8   (above 3, 4, 5)
     ///  y=1  3-------4-------5
-    ///       |  roof |  roof |         ridge 1-4 (smooth in the input)
+    ///       |  roof |  roof |         bend 1-4 (smooth in the input)
     ///  y=0  0-------1-------2
+    ///            wall: 9 --- 10 -- 11  (above 0, 1, 2)
     /// ```
     ///
-    /// Points 3, 4, 5 get a wedge for the roof and one for the wall; point 4's two
-    /// roof sides stay one wedge (the ridge is a 90° bend of the coarse output, but
-    /// the input has no crease near its other end, point 1), and point 1 is not split.
+    /// The walls' feet, 0 to 5, get a wedge for the roof and one for the wall; the
+    /// roof's two sides stay one wedge at 1 and 4: the bend runs from crease to
+    /// crease and the two sides' mean normals are about 60° apart, but near the bend
+    /// the input's normals agree on both sides (within about 26°).
     #[test]
     fn the_crease_split_is_local() {
         let n = 8u32;
-        let s2 = std::f32::consts::FRAC_1_SQRT_2;
+        let roof = |x: f32| -(x - 1.0).abs();
         let mut positions = Vec::new();
         let mut normals = Vec::new();
         let mut triangles = Vec::new();
@@ -953,50 +957,44 @@ mod tests {
                 [t[0], t[2], t[1]]
             }
         };
-        // Roof: one grid over x in [0, 2], y in [0, 1]; normals per side, the ridge's
-        // shared (0, 0, 1).
         let row = 2 * n + 1;
-        for j in 0..=n {
-            for i in 0..row {
-                let x = i as f32 / n as f32;
-                positions.push([x, j as f32 / n as f32, -(x - 1.0).abs()]);
-                normals.push(match i.cmp(&n) {
-                    std::cmp::Ordering::Less => [-s2, 0.0, s2],
-                    std::cmp::Ordering::Equal => [0.0, 0.0, 1.0],
-                    std::cmp::Ordering::Greater => [s2, 0.0, s2],
-                });
-            }
-        }
-        for j in 0..n {
-            for i in 0..row - 1 {
-                let at = |i: u32, j: u32| j * row + i;
-                for t in [
-                    [at(i, j), at(i + 1, j), at(i + 1, j + 1)],
-                    [at(i, j), at(i + 1, j + 1), at(i, j + 1)],
-                ] {
-                    triangles.push(facing(&positions, t, [0.0, 0.0, 1.0]));
+        let grid = |positions: &mut Vec<[f32; 3]>,
+                    normals: &mut Vec<[f32; 3]>,
+                    triangles: &mut Vec<[u32; 3]>,
+                    at: &dyn Fn(f32, f32) -> ([f32; 3], [f32; 3])| {
+            let base = positions.len() as u32;
+            for j in 0..=n {
+                for i in 0..row {
+                    let (p, nrm) = at(i as f32 / n as f32, j as f32 / n as f32);
+                    positions.push(p);
+                    normals.push(nrm);
                 }
             }
-        }
-        // Wall: its own vertices along y = 1 (normal +y), rising by 1.
-        let base = positions.len() as u32;
-        for h in 0..=n {
-            for i in 0..row {
-                let x = i as f32 / n as f32;
-                positions.push([x, 1.0, -(x - 1.0).abs() + h as f32 / n as f32]);
-                normals.push([0.0, 1.0, 0.0]);
-            }
-        }
-        for h in 0..n {
-            for i in 0..row - 1 {
-                let at = |i: u32, h: u32| base + h * row + i;
-                for t in [
-                    [at(i, h), at(i + 1, h), at(i + 1, h + 1)],
-                    [at(i, h), at(i + 1, h + 1), at(i, h + 1)],
-                ] {
-                    triangles.push(facing(&positions, t, [0.0, 1.0, 0.0]));
+            for j in 0..n {
+                for i in 0..row - 1 {
+                    let id = |i: u32, j: u32| base + j * row + i;
+                    let d = normals[id(i, j) as usize];
+                    for t in [
+                        [id(i, j), id(i + 1, j), id(i + 1, j + 1)],
+                        [id(i, j), id(i + 1, j + 1), id(i, j + 1)],
+                    ] {
+                        triangles.push(facing(positions, t, d));
+                    }
                 }
             }
+        };
+        let unit = |v: [f32; 3]| {
+            let l = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
+            v.map(|c| c / l)
+        };
+        grid(&mut positions, &mut normals, &mut triangles, &|x, y| {
+            let turn = (2.0 * (x - 1.0)).clamp(-1.0, 1.0);
+            ([x, y, roof(x)], unit([turn, 0.0, 1.0]))
+        });
+        for (y, ny) in [(1.0f32, 1.0f32), (0.0, -1.0)] {
+            grid(&mut positions, &mut normals, &mut triangles, &|x, h| {
+                ([x, y, roof(x) + h], [0.0, ny, 0.0])
+            });
         }
         let mut input = Mesh::from_triangles(positions, triangles);
         input.attributes.normals = Some(normals);
@@ -1010,9 +1008,11 @@ mod tests {
             [0.0, 1.0, 0.0],
             [1.0, 1.0, 1.0],
             [2.0, 1.0, 0.0],
+            [0.0, 0.0, 0.0],
+            [1.0, 0.0, 1.0],
+            [2.0, 0.0, 0.0],
         ];
-        let up = [0.0, 0.0, 1.0];
-        let back = [0.0, 1.0, 0.0];
+        let (up, back, front) = ([0.0, 0.0, 1.0], [0.0, 1.0, 0.0], [0.0, -1.0, 0.0]);
         let tris = vec![
             facing(&pos, [0, 1, 4], up),
             facing(&pos, [0, 4, 3], up),
@@ -1022,21 +1022,31 @@ mod tests {
             facing(&pos, [3, 7, 6], back),
             facing(&pos, [4, 5, 8], back),
             facing(&pos, [4, 8, 7], back),
+            facing(&pos, [0, 1, 10], front),
+            facing(&pos, [0, 10, 9], front),
+            facing(&pos, [1, 2, 11], front),
+            facing(&pos, [1, 11, 10], front),
         ];
         let mut out = Mesh::from_triangles(pos, tris);
-        out.attributes.normals = Some(vec![[0.0, s2, s2]; 9]);
+        out.attributes.normals = Some(vec![[0.0, 0.0, 1.0]; 12]);
         let (_, copies) = refit_attributes(&input, &mut out, &[]);
         let mut copied = copies.clone();
         copied.sort_unstable();
-        assert_eq!(copied, vec![3, 4, 5], "the wall's foot only");
+        assert_eq!(copied, vec![0, 1, 2, 3, 4, 5], "the walls' feet only");
         out.validate().expect("valid");
-        // Point 4's roof corners share one wedge.
-        let roof_at_4: Vec<u32> = out.triangles[..4]
-            .iter()
-            .flat_map(|t| t.iter().copied())
-            .filter(|&v| out.positions[v as usize] == [1.0, 1.0, 0.0])
-            .collect();
-        assert!(roof_at_4.windows(2).all(|w| w[0] == w[1]), "{roof_at_4:?}");
+        // At 1 and 4 the roof's corners share one wedge.
+        for p in [[1.0, 0.0, 0.0], [1.0, 1.0, 0.0]] {
+            let roof_at: Vec<u32> = out.triangles[..4]
+                .iter()
+                .flat_map(|t| t.iter().copied())
+                .filter(|&v| out.positions[v as usize] == p)
+                .collect();
+            assert_eq!(roof_at.len(), 3);
+            assert!(
+                roof_at.windows(2).all(|w| w[0] == w[1]),
+                "{p:?}: {roof_at:?}"
+            );
+        }
     }
 
     /// Nothing to fit: no attributes, or an empty output.

@@ -1,23 +1,24 @@
 //! Hard creases of the input restored in the output's normals.
 //!
 //! A collapse may cross a hard crease of the input (a line where the normal is
-//! discontinuous: wedges whose normals differ by more than [`CREASE_ANGLE_DEG`] at
-//! each of its points) when keeping it costs more than crossing it. One vertex normal
-//! then serves both sides and the refit can only average them. Before the normals are
-//! refitted, each output point's triangles are grouped by the input normals they
-//! cover: two triangles sharing an edge at the point (and a normal value) stay
-//! together unless, near both ends of that edge (the third of each triangle closest
-//! to the end), both cover input triangles at a crease, and the mean input normals
-//! of the two triangles differ by more than [`CREASE_ANGLE_DEG`]: the input's crease
-//! runs along the edge. (A coarse bend of a smooth surface next to a crease, such as
-//! a cylinder's side meeting its cap, stays smooth.) At a point where that cut
-//! anything, each group gets a normal wedge of its own: a vertex whose triangles fall
-//! into several groups is copied (same position, UVs and colours) and the refit fits
-//! each copy to its side. The crease is back, as a normal seam; no point moves, and
-//! each triangle keeps its corners' positions (some corners now name a copy).
+//! discontinuous: two wedges whose normals differ by more than [`CREASE_ANGLE_DEG`]
+//! at each of its points) when keeping it costs more than crossing it. One vertex
+//! normal then serves both sides and the refit can only average them. Before the
+//! normals are refitted, each output point's triangles are grouped: two triangles
+//! sharing an edge at the point (and a normal value) stay together unless the input
+//! has crease points near both ends of that edge on both sides (samples whose
+//! barycentric weight for the end is at least ⅓) and the mean input normals of the
+//! samples near the edge (weight of the opposite corner at most ¼) differ across it
+//! by more than [`CREASE_ANGLE_DEG`]: the input's normals jump along that edge. At a
+//! point where that cut anything, each group gets a normal wedge of its own: a
+//! vertex whose triangles fall into several groups is copied (same position, UVs
+//! and colours) and the refit fits each copy to its side. The crease is back, as a
+//! normal seam; no point moves, and each triangle keeps its corners' positions (some
+//! corners now name a copy).
 //!
-//! A smooth input (no point with two normals that far apart) is never split: the rule
-//! only puts back discontinuities the input had, where the input had them.
+//! A smooth input (no point with two normals that far apart) is never split, nor a
+//! coarse bend of a smooth part between two creases (a cylinder's side from cap to
+//! cap): near its edges the input's normals agree on both sides.
 
 use super::{normalise, Pair, Stream, CENTROID, NORMAL};
 use crate::mesh::topology::UnionFind;
@@ -29,6 +30,13 @@ use std::collections::HashMap;
 /// a crease point; mean input normals of two neighbouring output triangles that
 /// differ by more than this are split apart.
 pub(super) const CREASE_ANGLE_DEG: f64 = 45.0;
+/// Distinct normals of an input point compared with each new one, at most.
+const SEEN: usize = 16;
+/// A sample is near an output triangle's edge when its barycentric weight for the
+/// opposite corner is at most this, and near a corner when its weight for it is at
+/// least [`NEAR_CORNER`].
+const NEAR_EDGE: f32 = 0.25;
+const NEAR_CORNER: f32 = 1.0 / 3.0;
 
 /// Splits `out`'s normal wedges across the input's hard creases (module docs).
 /// `pairs` are the input triangles' samples paired with `out`; `weld` is `out`'s
@@ -49,36 +57,60 @@ pub(super) fn split_creases(
         return Vec::new();
     };
     let cos_crease = CREASE_ANGLE_DEG.to_radians().cos();
-    // Input points with a hard crease: a wedge's normal that far from the point's
-    // first non-zero one.
+    // Input points with a hard crease: two of the point's wedges whose normals are
+    // that far apart (each compared with the distinct normals seen before it at its
+    // point, up to [`SEEN`] of them).
     let wi = Weld::exact(&input.positions);
-    let mut first = vec![u32::MAX; wi.representative.len()];
-    let mut crease_point = vec![false; wi.representative.len()];
+    let np_in = wi.representative.len();
+    let mut by_point = vec![0u32; np_in + 1];
+    for &p in &wi.point_of {
+        by_point[p as usize + 1] += 1;
+    }
+    for i in 0..np_in {
+        by_point[i + 1] += by_point[i];
+    }
+    let mut at = by_point.clone();
+    let mut wedges = vec![0u32; wi.point_of.len()];
     for (v, &p) in wi.point_of.iter().enumerate() {
-        let n = n_in[v];
-        if n == [0.0; 3] {
+        wedges[at[p as usize] as usize] = v as u32;
+        at[p as usize] += 1;
+    }
+    drop(at);
+    let mut crease_point = vec![false; np_in];
+    let mut seen: Vec<[f32; 3]> = Vec::with_capacity(SEEN);
+    for (p, flag) in crease_point.iter_mut().enumerate() {
+        let ws = &wedges[by_point[p] as usize..by_point[p + 1] as usize];
+        if ws.len() < 2 {
             continue;
         }
-        let f = &mut first[p as usize];
-        if *f == u32::MAX {
-            *f = v as u32;
-        } else if cos_between(n, n_in[*f as usize]) < cos_crease {
-            crease_point[p as usize] = true;
+        seen.clear();
+        for &v in ws {
+            let n = n_in[v as usize];
+            if n == [0.0; 3] || seen.iter().any(|&s| same_normal(s, n)) {
+                continue;
+            }
+            if seen.iter().any(|&s| cos_between(n, s) < cos_crease) {
+                *flag = true;
+                break;
+            }
+            if seen.len() < SEEN {
+                seen.push(n);
+            }
         }
     }
-    drop(first);
+    drop((wedges, by_point));
     if !crease_point.contains(&true) {
         return Vec::new();
     }
-    // Per output triangle: the area-weighted mean of the input normals its samples
-    // carry, and per corner whether a sample in the third of the triangle nearest it
-    // comes from an input triangle at a crease.
+    // Per output triangle: for each edge (named by its opposite corner) the
+    // area-weighted mean of the input normals of the samples near it, and per corner
+    // whether a sample near it comes from an input triangle at a crease point.
     let s_in = Stream {
         values: n_in.as_flattened(),
         dim: 3,
     };
     let nt = out.triangles.len();
-    let mut mean = vec![[0.0f64; 3]; nt];
+    let mut band = vec![[[0.0f64; 3]; 3]; nt];
     let mut at_crease = vec![[false; 3]; nt];
     for (t, p) in pairs.iter().enumerate() {
         let o = p.triangle[NORMAL];
@@ -92,28 +124,37 @@ pub(super) fn split_creases(
             continue;
         }
         let w = f64::from(p.weight);
-        let m = &mut mean[o as usize];
-        for j in 0..3 {
-            m[j] += w * a[j];
+        let b = p.bary[NORMAL];
+        for (c, m) in band[o as usize].iter_mut().enumerate() {
+            if b[c] <= NEAR_EDGE {
+                for j in 0..3 {
+                    m[j] += w * a[j];
+                }
+            }
         }
         if input.triangles[t]
             .iter()
             .any(|&v| crease_point[wi.point_of[v as usize] as usize])
         {
-            for (c, &b) in p.bary[NORMAL].iter().enumerate() {
-                at_crease[o as usize][c] |= b >= 1.0 / 3.0;
+            for (c, &bc) in b.iter().enumerate() {
+                at_crease[o as usize][c] |= bc >= NEAR_CORNER;
             }
         }
     }
     drop(wi);
-    mean.iter_mut().for_each(|m| normalise(m));
-    let crease = |(ta, ka): (u32, u8), (tb, kb): (u32, u8)| {
-        let (a, b) = (ta as usize, tb as usize);
-        at_crease[a][ka as usize]
-            && at_crease[b][kb as usize]
-            && mean[a] != [0.0; 3]
-            && mean[b] != [0.0; 3]
-            && dot(mean[a], mean[b]) < cos_crease
+    band.iter_mut().flatten().for_each(|m| normalise(m));
+    // Triangles `ta` and `tb` share the edge from their corners `ka`, `kb` to their
+    // corners `qa`, `qb`: a crease when the input has crease points near both ends
+    // on both sides and the normals near the edge differ across it.
+    let crease = |(ta, ka, qa): (usize, usize, usize), (tb, kb, qb): (usize, usize, usize)| {
+        let (ea, eb) = (band[ta][3 - ka - qa], band[tb][3 - kb - qb]);
+        at_crease[ta][ka]
+            && at_crease[ta][qa]
+            && at_crease[tb][kb]
+            && at_crease[tb][qb]
+            && ea != [0.0; 3]
+            && eb != [0.0; 3]
+            && dot(ea, eb) < cos_crease
     };
 
     // The corners at each output point (counting sort by point).
@@ -195,9 +236,9 @@ pub(super) fn split_creases(
             if !same_normal(n_out[va], n_out[vb]) {
                 continue;
             }
-            // A crease along the shared edge: at a crease near both of its ends.
-            let (ta, tb) = (cs[a as usize].0, cs[b as usize].0);
-            if crease(cs[a as usize], cs[b as usize]) && crease((ta, qa), (tb, qb)) {
+            let ((ta, ka), (tb, kb)) = (cs[a as usize], cs[b as usize]);
+            let side_a = (ta as usize, ka as usize, qa as usize);
+            if crease(side_a, (tb as usize, kb as usize, qb as usize)) {
                 any_crease = true;
             } else {
                 kept.union(a, b);

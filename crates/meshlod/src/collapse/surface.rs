@@ -2640,19 +2640,7 @@ fn sorted3(t: [u32; 3]) -> [u32; 3] {
 pub(crate) fn canonical_wedges(mesh: &Mesh, weld: &Weld, normals: bool) -> Vec<u32> {
     let np = weld.point_count();
     let n = mesh.positions.len();
-    let mut count = vec![0u32; np + 1];
-    for &p in &weld.point_of {
-        count[p as usize + 1] += 1;
-    }
-    for i in 0..np {
-        count[i + 1] += count[i];
-    }
-    let mut order = vec![0u32; n];
-    let mut fill = count.clone();
-    for (v, &p) in weld.point_of.iter().enumerate() {
-        order[fill[p as usize] as usize] = v as u32;
-        fill[p as usize] += 1;
-    }
+    let (count, order) = weld.vertices_by_point();
     let a = &mesh.attributes;
     let same = |x: usize, y: usize| a.same_values(x, a, y, normals);
     let mut canonical: Vec<u32> = (0..n as u32).collect();

@@ -96,6 +96,54 @@ impl Weld {
         self.representative.len()
     }
 
+    /// The vertices grouped by point (a counting sort, vertex order kept within a
+    /// point): point `p`'s vertices are `vertices[start[p]..start[p + 1]]`. Returns
+    /// `(start, vertices)`.
+    pub(crate) fn vertices_by_point(&self) -> (Vec<u32>, Vec<u32>) {
+        let np = self.point_count();
+        let mut start = vec![0u32; np + 1];
+        for &p in &self.point_of {
+            start[p as usize + 1] += 1;
+        }
+        for i in 0..np {
+            start[i + 1] += start[i];
+        }
+        let mut fill = start.clone();
+        let mut vertices = vec![0u32; self.point_of.len()];
+        for (v, &p) in self.point_of.iter().enumerate() {
+            vertices[fill[p as usize] as usize] = v as u32;
+            fill[p as usize] += 1;
+        }
+        (start, vertices)
+    }
+
+    /// The corners of `triangles` (indices into the welded vertices) grouped by
+    /// point (a counting sort, triangle order kept): point `p`'s corners are
+    /// `corners[start[p]..start[p + 1]]`, each `(triangle, corner 0..3)`. Returns
+    /// `(start, corners)`.
+    pub(crate) fn corners_by_point(&self, triangles: &[[u32; 3]]) -> (Vec<u32>, Vec<(u32, u32)>) {
+        let np = self.point_count();
+        let mut start = vec![0u32; np + 1];
+        for t in triangles {
+            for &v in t {
+                start[self.point_of[v as usize] as usize + 1] += 1;
+            }
+        }
+        for i in 0..np {
+            start[i + 1] += start[i];
+        }
+        let mut fill = start.clone();
+        let mut corners = vec![(0u32, 0u32); start[np] as usize];
+        for (t, tri) in triangles.iter().enumerate() {
+            for (k, &v) in tri.iter().enumerate() {
+                let p = self.point_of[v as usize] as usize;
+                corners[fill[p] as usize] = (t as u32, k as u32);
+                fill[p] += 1;
+            }
+        }
+        (start, corners)
+    }
+
     /// Renumbers the points in Z order (Morton order) of their positions: points near
     /// each other in space get nearby ids, whatever the order of the input's vertices
     /// (Morton, "A computer oriented geodetic data base and a new technique in file

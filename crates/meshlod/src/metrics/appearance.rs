@@ -493,24 +493,7 @@ fn one_sided(
         // Each distinct position with every (vertex, material) wedge around it.
         let weld = Weld::exact(&mesh.positions);
         let np = weld.point_count();
-        let mut start = vec![0u32; np + 1];
-        for t in &mesh.triangles {
-            for &v in t {
-                start[weld.point_of[v as usize] as usize + 1] += 1;
-            }
-        }
-        for i in 0..np {
-            start[i + 1] += start[i];
-        }
-        let mut fill = start.clone();
-        let mut corners = vec![(0u32, 0u32); start[np] as usize];
-        for (t, tri) in mesh.triangles.iter().enumerate() {
-            for (k, &v) in tri.iter().enumerate() {
-                let pt = weld.point_of[v as usize] as usize;
-                corners[fill[pt] as usize] = (t as u32, k as u32);
-                fill[pt] += 1;
-            }
-        }
+        let (start, corners) = weld.corners_by_point(&mesh.triangles);
         let ids: Vec<u32> = (0..np as u32)
             .filter(|&p| start[p as usize + 1] > start[p as usize])
             .collect();

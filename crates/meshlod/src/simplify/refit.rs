@@ -838,6 +838,17 @@ mod tests {
         );
     }
 
+    /// The coarse roof of the crease tests: points 0–2 along `y = 0`, 3–5 along
+    /// `y = 1`, at `x = 0, 1, 2`, on `z = -|x - 1|`.
+    const COARSE_ROOF: [[f32; 3]; 6] = [
+        [0.0, 0.0, -1.0],
+        [1.0, 0.0, 0.0],
+        [2.0, 0.0, -1.0],
+        [0.0, 1.0, -1.0],
+        [1.0, 1.0, 0.0],
+        [2.0, 1.0, -1.0],
+    ];
+
     /// A roof: two planes meeting at a ridge (`x = 1`) at a right angle, the input
     /// finely meshed with a hard crease (each side its own normal, two wedges per
     /// ridge point); the output is the coarse roof whose ridge points have one
@@ -885,14 +896,7 @@ mod tests {
         let mut input = Mesh::from_triangles(positions, triangles);
         input.attributes.normals = Some(normals);
         let mut out = Mesh::from_triangles(
-            vec![
-                [0.0, 0.0, -1.0],
-                [1.0, 0.0, 0.0],
-                [2.0, 0.0, -1.0],
-                [0.0, 1.0, -1.0],
-                [1.0, 1.0, 0.0],
-                [2.0, 1.0, -1.0],
-            ],
+            COARSE_ROOF.to_vec(),
             vec![[0, 1, 4], [0, 4, 3], [1, 2, 5], [1, 5, 4]],
         );
         out.attributes.normals = Some(vec![[0.0, 0.0, 1.0]; 6]);
@@ -998,20 +1002,15 @@ mod tests {
         }
         let mut input = Mesh::from_triangles(positions, triangles);
         input.attributes.normals = Some(normals);
-        let pos = vec![
-            [0.0, 0.0, -1.0],
-            [1.0, 0.0, 0.0],
-            [2.0, 0.0, -1.0],
-            [0.0, 1.0, -1.0],
-            [1.0, 1.0, 0.0],
-            [2.0, 1.0, -1.0],
+        let mut pos = COARSE_ROOF.to_vec();
+        pos.extend([
             [0.0, 1.0, 0.0],
             [1.0, 1.0, 1.0],
             [2.0, 1.0, 0.0],
             [0.0, 0.0, 0.0],
             [1.0, 0.0, 1.0],
             [2.0, 0.0, 0.0],
-        ];
+        ]);
         let (up, back, front) = ([0.0, 0.0, 1.0], [0.0, 1.0, 0.0], [0.0, -1.0, 0.0]);
         let tris = vec![
             facing(&pos, [0, 1, 4], up),

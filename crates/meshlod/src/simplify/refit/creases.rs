@@ -61,21 +61,8 @@ pub(super) fn split_creases(
     // that far apart (each compared with the distinct normals seen before it at its
     // point, up to [`SEEN`] of them).
     let wi = Weld::exact(&input.positions);
-    let np_in = wi.representative.len();
-    let mut by_point = vec![0u32; np_in + 1];
-    for &p in &wi.point_of {
-        by_point[p as usize + 1] += 1;
-    }
-    for i in 0..np_in {
-        by_point[i + 1] += by_point[i];
-    }
-    let mut at = by_point.clone();
-    let mut wedges = vec![0u32; wi.point_of.len()];
-    for (v, &p) in wi.point_of.iter().enumerate() {
-        wedges[at[p as usize] as usize] = v as u32;
-        at[p as usize] += 1;
-    }
-    drop(at);
+    let np_in = wi.point_count();
+    let (by_point, wedges) = wi.vertices_by_point();
     let mut crease_point = vec![false; np_in];
     let mut seen: Vec<[f32; 3]> = Vec::with_capacity(SEEN);
     for (p, flag) in crease_point.iter_mut().enumerate() {
@@ -158,26 +145,8 @@ pub(super) fn split_creases(
     };
 
     // The corners at each output point (counting sort by point).
-    let np = weld.representative.len();
-    let mut start = vec![0u32; np + 1];
-    for t in &out.triangles {
-        for &v in t {
-            start[weld.point_of[v as usize] as usize + 1] += 1;
-        }
-    }
-    for i in 0..np {
-        start[i + 1] += start[i];
-    }
-    let mut fill = start.clone();
-    let mut corners = vec![(0u32, 0u8); nt * 3];
-    for (t, tri) in out.triangles.iter().enumerate() {
-        for (k, &v) in tri.iter().enumerate() {
-            let p = weld.point_of[v as usize] as usize;
-            corners[fill[p] as usize] = (t as u32, k as u8);
-            fill[p] += 1;
-        }
-    }
-    drop(fill);
+    let np = weld.point_count();
+    let (start, corners) = weld.corners_by_point(&out.triangles);
 
     let nv = out.positions.len();
     side.clear();

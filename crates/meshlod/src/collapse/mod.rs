@@ -47,7 +47,10 @@ pub(crate) use surface::FanCsr;
 
 pub(crate) use surface::canonical_wedges;
 pub(crate) use surface::closest_on_triangle;
-pub use surface::{BuildOptions, NonManifoldPoints, Repair, Surface, DEAD, MAX_SHEETS};
+pub use surface::{
+    BuildOptions, NonManifoldPoints, Repair, Surface, DEAD, MAX_SHEETS, SOLVED_COLOR,
+    SOLVED_NORMAL, SOLVED_UV0, SOLVED_UV1,
+};
 
 use crate::mesh::VertexKind;
 

@@ -8,6 +8,15 @@ use crate::quadric::{cross, dot, sub};
 /// Live triangles as wedge triples, point triples and optional groups.
 pub(crate) type OutputTriangles = (Vec<[u32; 3]>, Vec<[u32; 3]>, Option<Vec<u32>>);
 
+/// [`Surface::set_solved_streams`]: normals.
+pub const SOLVED_NORMAL: u8 = 1;
+/// [`Surface::set_solved_streams`]: the first texture coordinates.
+pub const SOLVED_UV0: u8 = 2;
+/// [`Surface::set_solved_streams`]: the second texture coordinates.
+pub const SOLVED_UV1: u8 = 4;
+/// [`Surface::set_solved_streams`]: colours.
+pub const SOLVED_COLOR: u8 = 8;
+
 /// Marks a dead triangle (all three corners) and "no triangle" in records.
 pub const DEAD: u32 = u32::MAX;
 
@@ -279,6 +288,10 @@ pub struct Surface {
     /// empty unless [`BuildOptions::track_merges`].
     merged: Vec<u32>,
     scratch_plans: Vec<(u32, [u32; 3], [f64; 3])>,
+    /// Attribute streams (`SOLVED_*` bits) whose values of the survivor's wedges
+    /// the cost model writes after every collapse ([`Self::set_solved_streams`]):
+    /// not interpolated by the collapse.
+    solved_streams: u8,
     kind_changed: [u32; MAX_SHEETS],
     fold_angle: f64,
     fold_cos: f64,
@@ -398,6 +411,7 @@ impl Surface {
             } else {
                 Vec::new()
             },
+            solved_streams: 0,
             scratch_plans: Vec::new(),
             kind_changed: [DEAD; MAX_SHEETS],
             fold_angle: f64::NAN,
@@ -1818,7 +1832,7 @@ impl Surface {
         // In steps: the attributes are interpolated (when `v` moves), the triangles
         // over both points die, `u`'s other corners become `v`'s, the two fans merge
         // into `v`'s, and the kinds around are updated.
-        if v_moves && !self.attrs.is_empty() {
+        if v_moves && self.interpolates_some_stream() {
             self.interpolate_attributes(u, v, p);
         }
         if self.carries_wedges(u) && !self.attrs.is_empty() {
@@ -2164,6 +2178,29 @@ impl Surface {
 
     // ----- attributes ------------------------------------------------------------
 
+    /// Declares which attribute streams (`SOLVED_*` bits) the cost model writes for
+    /// every wedge of the survivor after each collapse (the optimal values of its
+    /// attribute quadrics): the collapse then leaves them alone instead of
+    /// interpolating values that are overwritten at once. A wedge the model does
+    /// not write (no weight, a value not finite) keeps its value from before the
+    /// collapse. `0` (the default): every stream is interpolated.
+    pub fn set_solved_streams(&mut self, streams: u8) {
+        self.solved_streams = streams;
+    }
+
+    /// Whether a collapse that moves its survivor interpolates any stream.
+    fn interpolates_some_stream(&self) -> bool {
+        let a = &self.attrs;
+        let unsolved = |present: bool, bit: u8| present && self.solved_streams & bit == 0;
+        a.tangents.is_some()
+            || a.joints.is_some()
+            || a.weights.is_some()
+            || unsolved(a.normals.is_some(), SOLVED_NORMAL)
+            || unsolved(a.uv0.is_some(), SOLVED_UV0)
+            || unsolved(a.uv1.is_some(), SOLVED_UV1)
+            || unsolved(a.colors.is_some(), SOLVED_COLOR)
+    }
+
     /// Interpolates the attributes of every wedge of `v` at the new position `p` from
     /// the closest point on the pre-collapse triangles around `u` and `v` of the same
     /// side (wedge) of any seam.
@@ -2215,7 +2252,7 @@ impl Surface {
                 plans.push((wv, ws, best.2));
             }
         }
-        interpolate_streams(&mut self.attrs, &plans);
+        interpolate_streams(&mut self.attrs, &plans, self.solved_streams);
         self.scratch_plans = plans;
     }
 
@@ -2263,7 +2300,7 @@ impl Surface {
         }
         // `interpolate_streams` applies up to four plans per call.
         for chunk in plans.chunks(4) {
-            interpolate_streams(&mut self.attrs, chunk);
+            interpolate_streams(&mut self.attrs, chunk, 0);
         }
         self.scratch_plans = plans;
     }
@@ -2723,13 +2760,21 @@ pub(crate) fn closest_on_triangle(p: [f64; 3], q: [[f64; 3]; 3]) -> (f64, [f64; 
 
 /// Applies interpolation plans `(target wedge, source wedges, weights)` to every
 /// attribute stream; all plans read the values from before any is written.
-fn interpolate_streams(attrs: &mut VertexAttributes, plans: &[(u32, [u32; 3], [f64; 3])]) {
+fn interpolate_streams(
+    attrs: &mut VertexAttributes,
+    plans: &[(u32, [u32; 3], [f64; 3])],
+    solved: u8,
+) {
     fn lerp<const N: usize>(
         s: &mut Option<Vec<[f32; N]>>,
         plans: &[(u32, [u32; 3], [f64; 3])],
         post: impl Fn(&mut [f64; N]),
+        skip: bool,
     ) {
         let Some(v) = s else { return };
+        if skip {
+            return;
+        }
         let mut out: [[f32; N]; 4] = [[0.0; N]; 4];
         for (i, (_, ws, l)) in plans.iter().enumerate().take(4) {
             let mut acc = [0.0f64; N];
@@ -2752,7 +2797,12 @@ fn interpolate_streams(attrs: &mut VertexAttributes, plans: &[(u32, [u32; 3], [f
             a.iter_mut().for_each(|x| *x /= l);
         }
     };
-    lerp(&mut attrs.normals, plans, normalise3);
+    lerp(
+        &mut attrs.normals,
+        plans,
+        normalise3,
+        solved & SOLVED_NORMAL != 0,
+    );
     // Tangents: direction interpolated and normalised, handedness of the dominant corner.
     if let Some(t) = &mut attrs.tangents {
         let mut out = [[0.0f32; 4]; 4];
@@ -2776,9 +2826,9 @@ fn interpolate_streams(attrs: &mut VertexAttributes, plans: &[(u32, [u32; 3], [f
             t[*target as usize] = out[i];
         }
     }
-    lerp(&mut attrs.uv0, plans, |_| {});
-    lerp(&mut attrs.uv1, plans, |_| {});
-    lerp(&mut attrs.colors, plans, |_| {});
+    lerp(&mut attrs.uv0, plans, |_| {}, solved & SOLVED_UV0 != 0);
+    lerp(&mut attrs.uv1, plans, |_| {}, solved & SOLVED_UV1 != 0);
+    lerp(&mut attrs.colors, plans, |_| {}, solved & SOLVED_COLOR != 0);
     // Skinning: accumulate weight per joint over the three corners, keep the four
     // largest, renormalise.
     if let (Some(j), Some(wt)) = (&mut attrs.joints, &mut attrs.weights) {
@@ -2822,6 +2872,6 @@ fn interpolate_streams(attrs: &mut VertexAttributes, plans: &[(u32, [u32; 3], [f
             wt[*target as usize] = out[i].1;
         }
     } else {
-        lerp(&mut attrs.weights, plans, |_| {});
+        lerp(&mut attrs.weights, plans, |_| {}, false);
     }
 }

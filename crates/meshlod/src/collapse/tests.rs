@@ -773,3 +773,42 @@ fn dominant_joints_stay_apart_unless_they_may_merge() {
         );
     }
 }
+
+/// A stream the cost model declares solved is left alone by a collapse that moves
+/// its survivor; the others are still interpolated at the new position.
+///
+/// ```text
+///        3
+///      /   \        a hexagon fan around centre 0, rim 1..6; colours and UVs
+///     4  0  2       both equal x (the first component), so the collapse of
+///      \   /        rim 1 into 0 at x = 0.1 interpolates 0.1 for both
+///        5 ...
+/// ```
+#[test]
+fn solved_streams_are_not_interpolated() {
+    let mut pos = vec![[0.0f32, 0.0, 0.0]];
+    for i in 0..6 {
+        let a = std::f32::consts::TAU * i as f32 / 6.0;
+        pos.push([a.cos(), a.sin(), 0.0]);
+    }
+    let tris = (0..6u32).map(|i| [0, 1 + i, 1 + (i + 1) % 6]).collect();
+    let mut m = Mesh::from_triangles(pos, tris);
+    m.attributes.colors = Some(m.positions.iter().map(|p| [p[0], 0.0, 0.0, 1.0]).collect());
+    m.attributes.uv0 = Some(m.positions.iter().map(|p| [p[0], 0.0]).collect());
+    for solved in [0, SOLVED_COLOR] {
+        let mut s = surface(&m);
+        s.set_solved_streams(solved);
+        let mut pv = Preview::default();
+        assert!(s.check(1, 0, [0.1, 0.0, 0.0], &limits(), &mut pv).is_ok());
+        s.collapse(1, 0, [0.1, 0.0, 0.0]);
+        let w = s.point_vertex(0) as usize;
+        let uv = s.attributes().uv0.as_ref().unwrap()[w];
+        let c = s.attributes().colors.as_ref().unwrap()[w];
+        assert!((uv[0] - 0.1).abs() < 1e-6, "uv {uv:?}");
+        let expect = if solved == 0 { 0.1 } else { 0.0 };
+        assert!(
+            (c[0] - expect).abs() < 1e-6,
+            "solved {solved}: colour {c:?}"
+        );
+    }
+}

@@ -62,6 +62,14 @@ pub trait CostModel {
     /// Builds the per-point state from the initial surface.
     fn init(&mut self, surface: &Surface);
 
+    /// After [`CostModel::init`]: the attribute streams (`collapse::SOLVED_*` bits)
+    /// whose values [`CostModel::write_attributes`] sets for every wedge of the
+    /// survivor of each collapse, so the surface need not interpolate them.
+    /// Default: none.
+    fn solved_streams(&self) -> u8 {
+        0
+    }
+
     /// The best contraction of pair `(a, b)` among those `moves` allows, or `None`
     /// when the model proposes none.
     fn evaluate(&self, surface: &Surface, a: u32, b: u32, moves: &Moves) -> Option<Candidate>;
@@ -104,6 +112,13 @@ pub trait CostModel {
     /// nothing.
     fn prefetch_hint(&self, point: u32) {
         let _ = point;
+    }
+
+    /// A hint that pairs among `points` of `surface` will be evaluated soon: start
+    /// loading per-wedge state (attribute sums) without waiting for it (hardware
+    /// prefetches). Must not change any result. Default: nothing.
+    fn prefetch_wedges(&self, surface: &Surface, points: &[u32]) {
+        let _ = (surface, points);
     }
 
     /// Updates the state after `record` was performed (`surface` is already updated).

@@ -422,6 +422,25 @@ impl CostModel for Qem {
         std::hint::black_box(s);
     }
 
+    fn solved_streams(&self) -> u8 {
+        match &self.wedges {
+            // Endpoint placement writes nothing (`write_attributes`).
+            Some(w) if self.options.placement != Placement::Endpoint => w.solved_streams(),
+            _ => 0,
+        }
+    }
+
+    #[inline(always)]
+    fn prefetch_wedges(&self, surface: &Surface, points: &[u32]) {
+        if let Some(w) = &self.wedges {
+            for &p in points {
+                if (p as usize) < surface.point_count() {
+                    w.prefetch(surface.point_vertex(p));
+                }
+            }
+        }
+    }
+
     #[inline(always)]
     fn prefetch_hint(&self, point: u32) {
         if let Some(q) = self.quadrics.get(point as usize) {

@@ -303,6 +303,7 @@ impl<C: CostModel + ?Sized> Driver<'_, C> {
     fn load_points(&self, points: &[u32]) {
         self.cost.prefetch(points);
         self.surface.prefetch(points);
+        self.cost.prefetch_wedges(self.surface, points);
         let mut s = 0u32;
         for &q in points {
             s = s.wrapping_add(self.version[q as usize]);
@@ -781,6 +782,7 @@ fn run_impl<C: CostModel + ?Sized>(
     }
     observer.started(surface.live_triangles(), stop.target_triangles);
     cost.init(surface);
+    surface.set_solved_streams(cost.solved_streams());
     let np = surface.point_count();
     let surface_triangles = surface.live_triangles();
     let (partners, forward) = extra_partners(np, options);

@@ -17,7 +17,15 @@
 //!   with the triangle's interpolated values (corner normals normalised first), so it
 //!   lies on one side of any seam. (Three points per triangle, the quadrature exact
 //!   for quadratics, lowered the glTF assets' normal means by 0.3–2.5% more for
-//!   twice this pass's time.)
+//!   twice this pass's time.) When the input has more than
+//!   [`SAMPLES_PER_TRIANGLE`] triangles per output triangle (below 1/32 of the
+//!   input), that many samples per output triangle are drawn instead, systematically
+//!   by area in mesh order, each weighing an equal share of the area, plus every
+//!   input triangle touching a hard crease (for the crease split): on the
+//!   DamagedHelmet subdivided to 3.96M triangles at 0.1% the pass went from 3.5 s to
+//!   0.66 s for a normal-angle mean 0.08% higher (5.422° against 5.418°), on the
+//!   coloured 1M Grand Canyon grid at 1% from 0.87 s to 0.42 s for a colour mean 0.09%
+//!   higher (16 samples: 0.55% and 0.46% higher; 64: within 0.02%).
 //! - **Correspondence.** The closest point on the output (queries started at the
 //!   previous sample's answer: input triangles come in mesh order). Where it lies on
 //!   an edge or a corner, every output triangle as near (within `10⁻⁶` of the
@@ -56,9 +64,10 @@ use rayon::prelude::*;
 
 mod creases;
 
-/// The centroid of an input triangle (the one of the same index) paired with the
-/// output: 68 bytes.
+/// The centroid of an input triangle paired with the output: 72 bytes.
 struct Pair {
+    /// The input triangle sampled.
+    input: u32,
     /// Output triangle per stream (normal, uv0, uv1, colour); `u32::MAX` when the
     /// sample is left out for that stream.
     triangle: [u32; 4],
@@ -67,6 +76,71 @@ struct Pair {
     /// Weight (the input triangle's area).
     weight: f32,
 }
+
+/// Samples per output triangle, on average, above which the input's triangles are
+/// subsampled (module docs, "Samples").
+const SAMPLES_PER_TRIANGLE: usize = 32;
+
+/// Per input triangle, the weight of its sample: 0 when it is not sampled, [`OWN`]
+/// when it is sampled with its own area; `None` when every triangle is (the input
+/// has at most `per_triangle` triangles per triangle of an output of
+/// `out_triangles`). Otherwise the triangles for which `forced` holds are sampled
+/// with their own area, and the others systematically by area in mesh order, that
+/// many samples in all: each stands for an equal share of their area (a triangle larger than a share is
+/// always sampled, weighing the shares it spans), so the weights still sum to the
+/// area.
+fn sample_weights(
+    input: &Mesh,
+    out_triangles: usize,
+    per_triangle: usize,
+    forced: impl Fn(usize) -> bool + Sync,
+) -> Option<Vec<f32>> {
+    let n = input.triangles.len();
+    let budget = per_triangle.saturating_mul(out_triangles);
+    if n <= budget {
+        return None;
+    }
+    // The free triangles' areas; [`OWN`] for the forced ones.
+    let area: Vec<f64> = (0..n)
+        .into_par_iter()
+        .map(|t| {
+            if forced(t) {
+                return f64::from(OWN);
+            }
+            let c = input.triangles[t].map(|v| f64v(input.positions[v as usize]));
+            let n = cross(sub(c[1], c[0]), sub(c[2], c[0]));
+            let a = 0.5 * dot(n, n).sqrt();
+            if a.is_finite() {
+                a
+            } else {
+                0.0
+            }
+        })
+        .collect();
+    let free: f64 = area.iter().filter(|&&a| a > 0.0).sum();
+    let share = free / budget as f64;
+    let mut next = 0.5 * share;
+    let mut acc = 0.0f64;
+    Some(
+        area.iter()
+            .map(|&a| {
+                if a < 0.0 {
+                    return OWN;
+                }
+                acc += a;
+                if acc < next || share <= 0.0 {
+                    return 0.0;
+                }
+                let shares = ((acc - next) / share).floor() + 1.0;
+                next += shares * share;
+                (shares * share) as f32
+            })
+            .collect(),
+    )
+}
+
+/// [`sample_weights`]: sampled with its own area.
+const OWN: f32 = -1.0;
 
 /// Least-squares solves per attribute: the first plain, then reweighted by the
 /// residuals (iteratively reweighted least squares toward the mean difference;
@@ -162,6 +236,17 @@ fn streams(m: &Mesh) -> [Option<Stream<'_>>; STREAMS] {
 /// Returns the number of output vertices whose values changed and, for each copy in
 /// order, the vertex it copies.
 pub(crate) fn refit_attributes(input: &Mesh, out: &mut Mesh, locked: &[bool]) -> (usize, Vec<u32>) {
+    refit_sampled(input, out, locked, SAMPLES_PER_TRIANGLE)
+}
+
+/// [`refit_attributes`] with at most `samples_per_triangle` samples per output
+/// triangle on average (plus the input triangles at hard creases).
+fn refit_sampled(
+    input: &Mesh,
+    out: &mut Mesh,
+    locked: &[bool],
+    samples_per_triangle: usize,
+) -> (usize, Vec<u32>) {
     let si = streams(input);
     let so = streams(out);
     let present: Vec<usize> = (0..STREAMS)
@@ -173,6 +258,15 @@ pub(crate) fn refit_attributes(input: &Mesh, out: &mut Mesh, locked: &[bool]) ->
     let bvh = Bvh::build(&out.positions, &out.triangles);
     let diag = out.bbox_diagonal();
     let eps = 1e-6 * diag;
+    // The input's hard creases (normals only): every input triangle touching one
+    // is sampled, for the crease split.
+    let creases = present
+        .contains(&NORMAL)
+        .then(|| creases::CreasePoints::of(input))
+        .flatten();
+    let weights = sample_weights(input, out.triangles.len(), samples_per_triangle, |t| {
+        creases.as_ref().is_some_and(|c| c.touches(input, t))
+    });
     let out_ref: &Mesh = out;
     const CHUNK: usize = 2048;
     let pairs: Vec<Pair> = input
@@ -182,11 +276,20 @@ pub(crate) fn refit_attributes(input: &Mesh, out: &mut Mesh, locked: &[bool]) ->
         .flat_map_iter(|(c, chunk)| {
             let mut hint = None;
             let mut cands = Vec::new();
+            let weights = weights.as_deref();
             (0..chunk.len())
-                .map(|j| {
+                .filter_map(|j| {
                     let t = (c * CHUNK + j) as u32;
+                    let w = weights.map_or(OWN, |w| w[t as usize]);
+                    if w == 0.0 {
+                        return None;
+                    }
                     let scratch = (&mut hint, &mut cands);
-                    pair(input, out_ref, &bvh, t, scratch, eps, &si, &so, &present)
+                    let mut p = pair(input, out_ref, &bvh, t, scratch, eps, &si, &so, &present);
+                    if w != OWN {
+                        p.weight = w;
+                    }
+                    Some(p)
                 })
                 .collect::<Vec<_>>()
         })
@@ -197,11 +300,11 @@ pub(crate) fn refit_attributes(input: &Mesh, out: &mut Mesh, locked: &[bool]) ->
     // stream.
     let mut weld = Weld::exact(&out.positions);
     let mut side = Vec::new();
-    let copies = if present.contains(&NORMAL) {
-        creases::split_creases(input, out, &pairs, locked, &mut weld, &mut side)
-    } else {
-        Vec::new()
+    let copies = match &creases {
+        Some(c) => creases::split_creases(input, out, &pairs, c, locked, &mut weld, &mut side),
+        None => Vec::new(),
     };
+    drop(creases);
     let nv = out.positions.len();
     let mut changed = vec![false; nv];
     for &k in &present {
@@ -209,11 +312,10 @@ pub(crate) fn refit_attributes(input: &Mesh, out: &mut Mesh, locked: &[bool]) ->
         let d = s_in.dim;
         let targets: Vec<[f64; 4]> = pairs
             .iter()
-            .enumerate()
-            .map(|(t, p)| {
+            .map(|p| {
                 let mut a = [0.0f64; 4];
                 if p.triangle[k] != u32::MAX {
-                    s_in.interp(input, t as u32, CENTROID, k == NORMAL, &mut a[..d]);
+                    s_in.interp(input, p.input, CENTROID, k == NORMAL, &mut a[..d]);
                 }
                 a
             })
@@ -350,6 +452,7 @@ fn pair(
     let b = CENTROID;
     let p = [0, 1, 2].map(|k| (corners[0][k] + corners[1][k] + corners[2][k]) / 3.0);
     let mut pair = Pair {
+        input: t,
         triangle: [u32::MAX; STREAMS],
         bary: [[0.0; 3]; STREAMS],
         weight: area as f32,
@@ -1065,5 +1168,85 @@ mod tests {
             .iter()
             .zip(&b)
             .all(|(x, y)| (x[0] - y[0]).abs() < 1e-5 && (x[1] - y[1]).abs() < 1e-5));
+    }
+
+    /// The systematic subsample: none while the input has at most 32 triangles per
+    /// output triangle; otherwise 32 per output triangle by area, forced triangles
+    /// with their own area, the weights summing to the free triangles' area, and a
+    /// triangle larger than a share always sampled.
+    #[test]
+    fn subsampled_weights_keep_the_area() {
+        // A 40 × 40 grid whose columns widen to the right (x ↦ x³ spacing), so the
+        // triangles' areas vary by a factor of hundreds; one big sliver at the end
+        // (1/40 of the grid's area).
+        let mut m = generate::grid(40, 40, |_, _| 0.0);
+        for p in &mut m.positions {
+            p[0] = p[0].powi(3);
+        }
+        let n = m.triangles.len();
+        let big = m.positions.len() as u32;
+        m.positions
+            .extend_from_slice(&[[2.0, 0.0, 0.0], [3.0, 0.0, 0.0], [2.0, 0.05, 0.0]]);
+        m.triangles.push([big, big + 1, big + 2]);
+        let area = |t: usize| {
+            let c = m.triangles[t].map(|v| f64v(m.positions[v as usize]));
+            let x = cross(sub(c[1], c[0]), sub(c[2], c[0]));
+            0.5 * dot(x, x).sqrt()
+        };
+        let spt = SAMPLES_PER_TRIANGLE;
+        assert!(sample_weights(&m, (n + 1).div_ceil(spt), spt, |_| false).is_none());
+        let out_triangles = 20;
+        let forced = |t: usize| t % 97 == 5;
+        let w = sample_weights(&m, out_triangles, spt, forced).expect("subsampled");
+        assert_eq!(w.len(), n + 1);
+        let free: f64 = (0..=n).filter(|&t| !forced(t)).map(area).sum();
+        let sum: f64 = w.iter().filter(|&&x| x > 0.0).map(|&x| f64::from(x)).sum();
+        assert!((sum - free).abs() <= 1e-5 * free, "{sum} vs {free}");
+        for (t, &x) in w.iter().enumerate() {
+            assert_eq!(x == OWN, forced(t), "triangle {t}");
+        }
+        let sampled = w.iter().filter(|&&x| x > 0.0).count();
+        let budget = SAMPLES_PER_TRIANGLE * out_triangles;
+        // The sliver spans about 15 shares but is one sample.
+        assert!(
+            sampled <= budget && sampled > budget - 20,
+            "{sampled} of {budget}"
+        );
+        assert!(f64::from(w[n]) >= area(n) - free / budget as f64);
+    }
+
+    /// A colour field over a fine grid refitted on a coarse output from the
+    /// subsample comes out as from every sample, and far closer to the field than
+    /// the wrong start.
+    #[test]
+    fn the_subsample_fits_as_every_sample_does() {
+        let field = |p: [f32; 3]| [0.2 + 0.5 * p[0] * p[0], 0.7 - 0.3 * p[1], 0.1, 1.0];
+        let mut input = generate::grid(48, 48, |_, _| 0.0);
+        input.attributes.colors = Some(input.positions.iter().map(|&p| field(p)).collect());
+        let mut start = generate::grid(3, 3, |_, _| 0.0);
+        start.attributes.colors = Some(vec![[0.9, 0.1, 0.5, 1.0]; start.positions.len()]);
+        assert!(input.triangles.len() > SAMPLES_PER_TRIANGLE * start.triangles.len());
+        let fitted = |per_triangle| {
+            let mut out = start.clone();
+            refit_sampled(&input, &mut out, &[], per_triangle);
+            out.attributes.colors.unwrap()
+        };
+        let (sub, all) = (fitted(SAMPLES_PER_TRIANGLE), fitted(usize::MAX));
+        let error = |c: &[[f32; 4]]| -> f32 {
+            (start.positions.iter().zip(c))
+                .map(|(&p, c)| {
+                    (0..4)
+                        .map(|j| (c[j] - field(p)[j]).abs())
+                        .fold(0.0, f32::max)
+                })
+                .fold(0.0, f32::max)
+        };
+        let e0 = error(start.attributes.colors.as_ref().unwrap());
+        assert!(error(&all) < 0.2 * e0 && error(&sub) < 0.2 * e0, "{e0}");
+        for (a, b) in sub.iter().zip(&all) {
+            for j in 0..4 {
+                assert!((a[j] - b[j]).abs() < 0.01, "{a:?} vs {b:?}");
+            }
+        }
     }
 }

@@ -38,17 +38,69 @@ const SEEN: usize = 16;
 const NEAR_EDGE: f32 = 0.25;
 const NEAR_CORNER: f32 = 1.0 / 3.0;
 
+/// The input's hard-crease points: a point two of whose wedges' normals are more
+/// than [`CREASE_ANGLE_DEG`] apart (each compared with the distinct normals seen
+/// before it at its point, up to [`SEEN`] of them).
+pub(super) struct CreasePoints {
+    /// The input's exact weld (its points).
+    weld: Weld,
+    /// Per point of `weld`.
+    crease: Vec<bool>,
+}
+
+impl CreasePoints {
+    /// `None` when the input has no normals or no crease point.
+    pub(super) fn of(input: &Mesh) -> Option<Self> {
+        let n_in = input.attributes.normals.as_ref()?;
+        let cos_crease = CREASE_ANGLE_DEG.to_radians().cos();
+        let weld = Weld::exact(&input.positions);
+        let (by_point, wedges) = weld.vertices_by_point();
+        let mut crease = vec![false; weld.point_count()];
+        let mut seen: Vec<[f32; 3]> = Vec::with_capacity(SEEN);
+        for (p, flag) in crease.iter_mut().enumerate() {
+            let ws = &wedges[by_point[p] as usize..by_point[p + 1] as usize];
+            if ws.len() < 2 {
+                continue;
+            }
+            seen.clear();
+            for &v in ws {
+                let n = n_in[v as usize];
+                if n == [0.0; 3] || seen.iter().any(|&s| same_normal(s, n)) {
+                    continue;
+                }
+                if seen.iter().any(|&s| cos_between(n, s) < cos_crease) {
+                    *flag = true;
+                    break;
+                }
+                if seen.len() < SEEN {
+                    seen.push(n);
+                }
+            }
+        }
+        crease.contains(&true).then_some(Self { weld, crease })
+    }
+
+    /// Whether input triangle `t` has a corner at a crease point.
+    pub(super) fn touches(&self, input: &Mesh, t: usize) -> bool {
+        input.triangles[t]
+            .iter()
+            .any(|&v| self.crease[self.weld.point_of[v as usize] as usize])
+    }
+}
+
 /// Splits `out`'s normal wedges across the input's hard creases (module docs).
-/// `pairs` are the input triangles' samples paired with `out`; `weld` is `out`'s
-/// exact weld (its points), extended here for the copies; no wedge is split at a
-/// point with a `locked` vertex. Copies are appended to `out`; returns, for each copy
-/// in order, the vertex it copies, and sets `side` (one entry per vertex of `out`,
-/// extended for the copies) to a label that differs between the groups of a split
-/// point (0 elsewhere).
+/// `pairs` are the input triangles' samples paired with `out` (every input triangle
+/// touching one of `creases` among them); `weld` is `out`'s exact weld (its points),
+/// extended here for the copies; no wedge is split at a point with a `locked`
+/// vertex. Copies are appended to `out`; returns, for each copy in order, the vertex
+/// it copies, and sets `side` (one entry per vertex of `out`, extended for the
+/// copies) to a label that differs between the groups of a split point (0
+/// elsewhere).
 pub(super) fn split_creases(
     input: &Mesh,
     out: &mut Mesh,
     pairs: &[Pair],
+    creases: &CreasePoints,
     locked: &[bool],
     weld: &mut Weld,
     side: &mut Vec<u32>,
@@ -57,38 +109,6 @@ pub(super) fn split_creases(
         return Vec::new();
     };
     let cos_crease = CREASE_ANGLE_DEG.to_radians().cos();
-    // Input points with a hard crease: two of the point's wedges whose normals are
-    // that far apart (each compared with the distinct normals seen before it at its
-    // point, up to [`SEEN`] of them).
-    let wi = Weld::exact(&input.positions);
-    let np_in = wi.point_count();
-    let (by_point, wedges) = wi.vertices_by_point();
-    let mut crease_point = vec![false; np_in];
-    let mut seen: Vec<[f32; 3]> = Vec::with_capacity(SEEN);
-    for (p, flag) in crease_point.iter_mut().enumerate() {
-        let ws = &wedges[by_point[p] as usize..by_point[p + 1] as usize];
-        if ws.len() < 2 {
-            continue;
-        }
-        seen.clear();
-        for &v in ws {
-            let n = n_in[v as usize];
-            if n == [0.0; 3] || seen.iter().any(|&s| same_normal(s, n)) {
-                continue;
-            }
-            if seen.iter().any(|&s| cos_between(n, s) < cos_crease) {
-                *flag = true;
-                break;
-            }
-            if seen.len() < SEEN {
-                seen.push(n);
-            }
-        }
-    }
-    drop((wedges, by_point));
-    if !crease_point.contains(&true) {
-        return Vec::new();
-    }
     // Per output triangle: for each edge (named by its opposite corner) the
     // area-weighted mean of the input normals of the samples near it, and per corner
     // whether a sample near it comes from an input triangle at a crease point.
@@ -99,13 +119,14 @@ pub(super) fn split_creases(
     let nt = out.triangles.len();
     let mut band = vec![[[0.0f64; 3]; 3]; nt];
     let mut at_crease = vec![[false; 3]; nt];
-    for (t, p) in pairs.iter().enumerate() {
+    for p in pairs {
         let o = p.triangle[NORMAL];
         if o == u32::MAX {
             continue;
         }
+        let t = p.input as usize;
         let mut a = [0.0f64; 3];
-        s_in.interp(input, t as u32, CENTROID, true, &mut a);
+        s_in.interp(input, p.input, CENTROID, true, &mut a);
         normalise(&mut a);
         if !a.iter().all(|x| x.is_finite()) {
             continue;
@@ -119,16 +140,12 @@ pub(super) fn split_creases(
                 }
             }
         }
-        if input.triangles[t]
-            .iter()
-            .any(|&v| crease_point[wi.point_of[v as usize] as usize])
-        {
+        if creases.touches(input, t) {
             for (c, &bc) in b.iter().enumerate() {
                 at_crease[o as usize][c] |= bc >= NEAR_CORNER;
             }
         }
     }
-    drop(wi);
     band.iter_mut().flatten().for_each(|m| normalise(m));
     // Triangles `ta` and `tb` share the edge from their corners `ka`, `kb` to their
     // corners `qa`, `qb`: a crease when the input has crease points near both ends

@@ -285,8 +285,10 @@ impl WedgeQuadrics {
     /// for [`DEAD`] or a wedge out of range). A hint: nothing changes.
     #[inline(always)]
     pub(crate) fn prefetch(&self, w: u32) {
-        let o = w as usize * self.stride;
-        if let Some(block) = self.data.get(o..o + self.stride) {
+        let Some(o) = (w as usize).checked_mul(self.stride) else {
+            return;
+        };
+        if let Some(block) = self.data.get(o..o.saturating_add(self.stride)) {
             for x in block.iter().step_by(8) {
                 crate::isa::prefetch(x);
             }

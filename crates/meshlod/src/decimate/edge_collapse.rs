@@ -754,7 +754,10 @@ pub fn run<C: CostModel + ?Sized>(
     options: &EdgeCollapseOptions,
     observer: &mut dyn Observer,
 ) -> Outcome {
-    crate::isa::dispatch!(run_impl(surface, cost, filters, options, observer))
+    let outcome = crate::isa::dispatch!(run_impl(surface, cost, filters, options, observer));
+    // The cost model writes the solved streams only within this run.
+    surface.set_solved_streams(0);
+    outcome
 }
 
 /// The whole run (see the module docs): the setup, then the queue loop, whose

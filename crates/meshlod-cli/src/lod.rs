@@ -69,8 +69,9 @@ pub struct LodArgs {
     #[arg(long)]
     pub geomorph: bool,
     /// Samples per direction of each level's Hausdorff measurement against LOD0
-    /// (default: 10 per triangle of the sampled mesh, at least 20,000). `meshlod
-    /// measure --samples N` with the same N reports the same distances.
+    /// (default: 10 per triangle of the sampled mesh, at least 20,000, at most
+    /// 2,000,000). `meshlod measure --samples N` with the same N reports the same
+    /// distances.
     #[arg(long, value_name = "N")]
     pub samples: Option<usize>,
     /// Also write a PNG picture of the levels side by side, LOD0 first (same camera,

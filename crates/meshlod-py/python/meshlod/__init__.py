@@ -362,7 +362,7 @@ def lod(
         pixel_error, screen_height, fov: the screen the switch distances are for
             (pixels, pixels, vertical degrees).
         samples: samples per direction of each level's measurement (default 10 per
-            triangle of the sampled mesh, at least 20,000).
+            triangle of the sampled mesh, at least 20,000, at most 2,000,000).
         threads: at most this many threads (default: all cores).
 
     Returns:

@@ -131,8 +131,8 @@ pub struct ChainOptions {
     /// How each level's Hausdorff distance to LOD0 is sampled. Default: as
     /// `meshlod measure` (vertices, edges and faces, seed 0), except that without
     /// an explicit count each direction takes 10 samples per triangle of the
-    /// sampled mesh, at least [`MIN_SAMPLES`]; `meshlod measure --samples N` with
-    /// that `N` gives the same distances.
+    /// sampled mesh, at least [`MIN_SAMPLES`] and at most [`MAX_SAMPLES`]; `meshlod
+    /// measure --samples N` with that `N` gives the same distances.
     pub sampling: SamplingOptions,
     /// The screen the switch distances are computed for.
     pub screen: Screen,
@@ -678,16 +678,22 @@ fn chain_level_by_level(planner: &mut Planner<'_>) -> Result<(), LodError> {
 /// The fewest samples per direction a level is measured with by default.
 pub const MIN_SAMPLES: usize = 20_000;
 
+/// The most samples per direction a level is measured with by default (beside the
+/// sampled mesh's vertices, which are all taken).
+pub const MAX_SAMPLES: usize = 2_000_000;
+
 /// `options` with its sample count fixed for sampling `mesh`: as given, or by
-/// default 10 per triangle and at least [`MIN_SAMPLES`] (a chain of a scene
-/// measures every mesh at every level, so `meshlod measure`'s floor of a million
-/// would make small meshes cost as much as large ones).
+/// default 10 per triangle, at least [`MIN_SAMPLES`] (a chain of a scene measures
+/// every mesh at every level, so `meshlod measure`'s floor of a million would make
+/// small meshes cost as much as large ones) and at most [`MAX_SAMPLES`] (every
+/// level samples LOD0: on a 3.96M-triangle LOD0, 10 per triangle took 60 s a
+/// level).
 fn sampling(options: &SamplingOptions, mesh: &Mesh) -> SamplingOptions {
     SamplingOptions {
         samples: Some(
             options
                 .samples
-                .unwrap_or_else(|| (10 * mesh.triangles.len()).max(MIN_SAMPLES)),
+                .unwrap_or_else(|| (10 * mesh.triangles.len()).clamp(MIN_SAMPLES, MAX_SAMPLES)),
         ),
         ..options.clone()
     }
@@ -721,5 +727,27 @@ fn check_levels(levels: &LevelSpec) -> Result<(), LodError> {
             }
             Ok(())
         }
+    }
+}
+
+#[cfg(test)]
+mod sampling_tests {
+    use super::*;
+    use crate::mesh::generate;
+
+    /// The default count: 10 per triangle between the floor and the cap; an
+    /// explicit count as given.
+    #[test]
+    fn default_samples_are_bounded() {
+        let n_of = |m: &Mesh| sampling(&SamplingOptions::default(), m).samples;
+        assert_eq!(n_of(&generate::grid(10, 10, |_, _| 0.0)), Some(MIN_SAMPLES));
+        assert_eq!(n_of(&generate::grid(100, 100, |_, _| 0.0)), Some(200_000));
+        assert_eq!(
+            n_of(&generate::grid(400, 400, |_, _| 0.0)),
+            Some(MAX_SAMPLES)
+        );
+        let given = SamplingOptions::default().with_samples(5_000_000);
+        let big = generate::grid(400, 400, |_, _| 0.0);
+        assert_eq!(sampling(&given, &big).samples, Some(5_000_000));
     }
 }

@@ -1191,7 +1191,7 @@ mod tests {
             .all(|(x, y)| (x[0] - y[0]).abs() < 1e-5 && (x[1] - y[1]).abs() < 1e-5));
     }
 
-    /// The systematic subsample: none while the input has at most 32 triangles per
+    /// The subsample: none while the input has at most 32 triangles per
     /// output triangle; otherwise 32 per output triangle by area, forced triangles
     /// with their own area, the weights summing to the free triangles' area, and a
     /// triangle larger than a share always sampled.

@@ -86,6 +86,18 @@ fn interior_edge_between_border_points_is_refused() {
     assert_consistent(&s);
 }
 
+/// A unit hexagon in the plane z = 0, fanned around its centre: point 0 at the
+/// origin, rim points 1..6 counter-clockwise from (1, 0, 0), triangles (0, i, i+1).
+fn hexagon_fan() -> Mesh {
+    let mut pos = vec![[0.0f32, 0.0, 0.0]];
+    for i in 0..6 {
+        let a = std::f32::consts::TAU * i as f32 / 6.0;
+        pos.push([a.cos(), a.sin(), 0.0]);
+    }
+    let tris = (0..6u32).map(|i| [0, 1 + i, 1 + (i + 1) % 6]).collect();
+    Mesh::from_triangles(pos, tris)
+}
+
 /// A fan around point 0 in the plane (hexagon); moving the centre far outside
 /// flips triangles; moving it onto a rim edge line makes a zero-area triangle.
 /// ```text
@@ -95,13 +107,7 @@ fn interior_edge_between_border_points_is_refused() {
 /// ```
 #[test]
 fn fold_over_and_degenerate_are_refused() {
-    let mut pos = vec![[0.0f32, 0.0, 0.0]];
-    for i in 0..6 {
-        let a = std::f32::consts::TAU * i as f32 / 6.0;
-        pos.push([a.cos(), a.sin(), 0.0]);
-    }
-    let tris = (0..6u32).map(|i| [0, 1 + i, 1 + (i + 1) % 6]).collect();
-    let m = Mesh::from_triangles(pos, tris);
+    let m = hexagon_fan();
     let mut s = surface(&m);
     let mut pv = Preview::default();
     // Collapse rim point 1 into centre 0, moving 0 far to the left: folds over.
@@ -786,13 +792,7 @@ fn dominant_joints_stay_apart_unless_they_may_merge() {
 /// ```
 #[test]
 fn solved_streams_are_not_interpolated() {
-    let mut pos = vec![[0.0f32, 0.0, 0.0]];
-    for i in 0..6 {
-        let a = std::f32::consts::TAU * i as f32 / 6.0;
-        pos.push([a.cos(), a.sin(), 0.0]);
-    }
-    let tris = (0..6u32).map(|i| [0, 1 + i, 1 + (i + 1) % 6]).collect();
-    let mut m = Mesh::from_triangles(pos, tris);
+    let mut m = hexagon_fan();
     m.attributes.colors = Some(m.positions.iter().map(|p| [p[0], 0.0, 0.0, 1.0]).collect());
     m.attributes.uv0 = Some(m.positions.iter().map(|p| [p[0], 0.0]).collect());
     for solved in [0, SOLVED_COLOR] {

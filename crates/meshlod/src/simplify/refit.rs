@@ -109,8 +109,7 @@ fn sample_weights(
             if forced(t) {
                 return f64::from(OWN);
             }
-            let c = input.triangles[t].map(|v| f64v(input.positions[v as usize]));
-            let n = cross(sub(c[1], c[0]), sub(c[2], c[0]));
+            let n = face_normal(input, t);
             let a = 0.5 * dot(n, n).sqrt();
             if a.is_finite() {
                 a
@@ -1210,8 +1209,7 @@ mod tests {
             .extend_from_slice(&[[2.0, 0.0, 0.0], [3.0, 0.0, 0.0], [2.0, 0.05, 0.0]]);
         m.triangles.push([big, big + 1, big + 2]);
         let area = |t: usize| {
-            let c = m.triangles[t].map(|v| f64v(m.positions[v as usize]));
-            let x = cross(sub(c[1], c[0]), sub(c[2], c[0]));
+            let x = face_normal(&m, t);
             0.5 * dot(x, x).sqrt()
         };
         let spt = SAMPLES_PER_TRIANGLE;

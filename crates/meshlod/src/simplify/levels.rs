@@ -1,9 +1,10 @@
 //! Successive levels of detail in one edge-collapse run: the surface is built
 //! once, decimated to the first level's stop, written out (a copy: the surface
 //! keeps its attribute streams) and refined like any [`simplify`](super::simplify)
-//! output, then decimated further to the next level's stop, and so on. A level's
-//! orientation repair (against LOD0) runs on a second thread while the next level
-//! is decimated.
+//! output, then decimated further to the next level's stop, and so on. The
+//! levels' orientation repairs (against LOD0) and attribute refits run on a
+//! second thread, one level after the other, while the next levels are
+//! decimated.
 //!
 //! Each level is thus made from the one before it, by the very collapses a single
 //! run to the coarsest level would perform, and QEM's quadrics carry over
@@ -181,7 +182,16 @@ pub fn simplify_levels(
     };
     let levels = std::thread::scope(|scope| {
         let mut done: Vec<LevelOutput> = Vec::new();
-        let mut running = Vec::new();
+        // One thread finishes the levels in order while the next ones are
+        // decimated. A thread per level ran every level's repair and refit at
+        // once: `meshlod lod` on the DamagedHelmet subdivided to 3.96M
+        // triangles peaked at 3.35–3.95 GB, against 3.07–3.13 GB so, for 2.5 s
+        // more of 76 s (the same outputs).
+        let (send, levels) = std::sync::mpsc::channel::<Raw>();
+        let finisher = parallel.then(|| {
+            let finish = &finish;
+            scope.spawn(move || levels.iter().map(finish).collect::<Vec<_>>())
+        });
         let mut progress: Vec<LevelProgress> = Vec::new();
         let mut decimator = Decimator {
             surface: &mut surface,
@@ -204,15 +214,20 @@ pub fn simplify_levels(
                 triangles: raw.out.triangles.len(),
                 error: raw.outcome.max_error,
             });
-            if parallel {
-                running.push(scope.spawn(|| finish(raw)));
+            if finisher.is_some() {
+                // The finisher takes levels until `send` is dropped, below; it is
+                // gone early only if it panicked, which its join passes on.
+                if send.send(raw).is_err() {
+                    break;
+                }
             } else {
                 done.push(finish(raw));
             }
         }
-        for handle in running {
+        drop(send);
+        if let Some(handle) = finisher {
             match handle.join() {
-                Ok(level) => done.push(level),
+                Ok(levels) => done = levels,
                 Err(panic) => std::panic::resume_unwind(panic),
             }
         }

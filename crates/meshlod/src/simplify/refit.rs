@@ -626,7 +626,10 @@ fn solve(
     match d {
         2 => solve_rows::<2>(&system, x0, start, locked),
         3 => solve_rows::<3>(&system, x0, start, locked),
-        _ => solve_rows::<4>(&system, x0, start, locked),
+        d => {
+            debug_assert_eq!(d, 4, "streams have 2, 3 or 4 values");
+            solve_rows::<4>(&system, x0, start, locked)
+        }
     }
 }
 
@@ -737,8 +740,7 @@ fn solve_rows<const D: usize>(
     let mut x = start.to_vec();
     let mut ax = vec![0.0; nv * d];
     apply(&x, &mut ax);
-    // Per vertex (rows of `d`: no division per entry, which cost a third of
-    // the solve).
+    // Per vertex, by rows of `d` (no integer division per entry).
     let mask = |v: &mut [f64]| {
         for (row, &f) in v.chunks_exact_mut(d).zip(&fixed) {
             if f {

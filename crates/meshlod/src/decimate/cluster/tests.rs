@@ -677,3 +677,58 @@ fn coverage_repair_streams_alike() {
     assert_eq!(mem.mesh.positions, st.mesh.positions);
     assert_eq!(mem.mesh.triangles, st.mesh.triangles);
 }
+
+/// A random soup (13 triangles with repeated corners over 18 points, found by
+/// `random_meshes_give_clean_output`): at 29 triangles with quadric
+/// representatives, the coverage repair once wrote the same three cells twice,
+/// in opposite orders. Every run on it is clean.
+#[test]
+fn coverage_repair_never_repeats_a_triangle() {
+    let positions: Vec<[f32; 3]> = vec![
+        [1.933_300_6, 4.489_176_8, 0.0],
+        [0.0, 0.0, 9.790_009_5],
+        [0.0, 4.497_631, -3.431_458_7],
+        [1.033_026_8, 2.671_430_6, -4.778_195_4],
+        [-2.030_208, -4.102_251, 0.0],
+        [2.043_367_9, -8.195_693, 0.0],
+        [9.869_063, 0.0, 0.0],
+        [4.733_597, 0.0, -9.295_336],
+        [0.0, -4.086_556, -6.830_721],
+        [0.0, -7.165_023_3, -5.517_174_7],
+        [0.0, 0.0, 6.903_789],
+        [0.0, 0.0, 6.994_321],
+        [3.799_055, 0.0, 0.0],
+        [-8.012_332, 1.447_200_9, -2.094_660_5],
+        [-5.467_685, 0.0, -2.518_782_4],
+        [4.962_386, 0.0, 0.0],
+        [-6.344_104_3, -0.487_978_67, -2.984_471_8],
+        [5.705_677_5, 1.405_409_9, -8.636_794],
+    ];
+    let triangles = vec![
+        [17, 1, 13],
+        [8, 8, 0],
+        [15, 9, 12],
+        [6, 5, 7],
+        [5, 7, 8],
+        [10, 9, 13],
+        [0, 3, 3],
+        [5, 14, 13],
+        [10, 5, 6],
+        [2, 0, 2],
+        [10, 4, 6],
+        [13, 4, 6],
+        [6, 4, 9],
+    ];
+    let m = Mesh {
+        positions,
+        triangles,
+        ..Mesh::default()
+    };
+    let o = ClusterOptions::default().with_cell_size(Distance::Absolute(0.357_604_084_808_375_74));
+    assert_clean(&cluster_mesh(&m, None, &o).unwrap().mesh);
+    for how in [Representative::Quadric, Representative::Average] {
+        let o = ClusterOptions::default().with_representative(how);
+        let c = cluster_mesh(&m, Some(29), &o).unwrap();
+        assert_clean(&c.mesh);
+    }
+}

@@ -433,7 +433,15 @@ impl StreamFit<'_> {
         let mut x = x0.clone();
         let mut fixed = vec![true; nv];
         for round in 0..ROUNDS {
-            let (xr, fx) = solve(out, &tris, pairs, &targets, &rw, k, d, &x0, &x, &held);
+            let system = System {
+                out,
+                tris: &tris,
+                pairs,
+                targets: &targets,
+                rw: &rw,
+                k,
+            };
+            let (xr, fx) = system.solve(d, &x0, &x, &held);
             x = xr;
             fixed = fx;
             for (v, &g) in group.iter().enumerate() {
@@ -601,37 +609,6 @@ fn pair(
     pair
 }
 
-/// One weighted least-squares solve of stream `k` (dimension `d`): the values and
-/// which vertices were held fixed.
-#[allow(clippy::too_many_arguments)]
-fn solve(
-    out: &Mesh,
-    tris: &[[u32; 3]],
-    pairs: &[Pair],
-    targets: &[[f64; 4]],
-    rw: &[f64],
-    k: usize,
-    d: usize,
-    x0: &[f64],
-    start: &[f64],
-    locked: &[bool],
-) -> (Vec<f64>, Vec<bool>) {
-    let system = System {
-        out,
-        tris,
-        pairs,
-        targets,
-        rw,
-        k,
-    };
-    match d {
-        2 => solve_rows::<2>(&system, x0, start, locked),
-        3 => solve_rows::<3>(&system, x0, start, locked),
-        4 => solve_rows::<4>(&system, x0, start, locked),
-        _ => unreachable!("streams have 2, 3 or 4 values per vertex"),
-    }
-}
-
 /// The entries of a symmetric 3 × 3 block, in the order stored.
 const SYMMETRIC: [(usize, usize); 6] = [(0, 0), (0, 1), (0, 2), (1, 1), (1, 2), (2, 2)];
 
@@ -646,7 +623,20 @@ struct System<'a> {
     k: usize,
 }
 
-/// [`solve`] for rows of `D` values (a constant, so the loops over a row unroll).
+impl System<'_> {
+    /// One weighted least-squares solve of rows of `d` values from `start`,
+    /// held toward `x0`: the values and which vertices were held fixed.
+    fn solve(&self, d: usize, x0: &[f64], start: &[f64], locked: &[bool]) -> (Vec<f64>, Vec<bool>) {
+        match d {
+            2 => solve_rows::<2>(self, x0, start, locked),
+            3 => solve_rows::<3>(self, x0, start, locked),
+            4 => solve_rows::<4>(self, x0, start, locked),
+            _ => unreachable!("streams have 2, 3 or 4 values per vertex"),
+        }
+    }
+}
+
+/// [`System::solve`] for rows of `D` values (a constant, so the loops over a row unroll).
 fn solve_rows<const D: usize>(
     system: &System<'_>,
     x0: &[f64],

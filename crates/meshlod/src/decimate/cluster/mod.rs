@@ -2203,18 +2203,17 @@ impl Emit<'_> {
     /// `vertex_of_cell` up to date; returns how many were written.
     fn coverage(&mut self, repair: Vec<[u32; 3]>, vertex_of_cell: &mut [u32]) -> usize {
         let mut coverage = 0;
-        // Without coinciding representatives `triangle` keeps no set: a repair
-        // triangle (over an orphan cell) cannot repeat a first-stage one, but two
-        // repair triangles can cover the same three cells, in either order (a
-        // random soup of 13 triangles gave one such pair).
-        let mut repaired = std::collections::HashSet::new();
+        // Without coinciding representatives `triangle` fills no triple set: a
+        // repair triangle (over an orphan cell) cannot repeat a first-stage one,
+        // but two repair triangles can cover the same three cells, in either
+        // order (a random soup of 13 triangles gave one such pair), so the set,
+        // empty until now, takes the repair's triples.
         for c in repair {
-            if !self.merged {
-                let mut key = c.map(|x| self.point_of[x as usize]);
-                key.sort_unstable();
-                if !repaired.insert(key) {
-                    continue;
-                }
+            let p = c.map(|x| self.point_of[x as usize]);
+            // (A triple with a repeated point is flat: `triangle` drops it.)
+            let distinct = p[0] != p[1] && p[1] != p[2] && p[0] != p[2];
+            if !self.merged && distinct && !self.set.insert(p) {
+                continue;
             }
             if !matches!(self.triangle(c, 0), Emitted::Added) {
                 continue;

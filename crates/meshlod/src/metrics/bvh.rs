@@ -119,7 +119,6 @@ impl Bvh {
     /// Panics if a triangle index is out of range (validate the mesh first).
     #[must_use]
     pub fn build(positions: &[[f32; 3]], triangles: &[[u32; 3]]) -> Self {
-        let n = triangles.len();
         let corners = corners_of(positions, triangles);
         let centroid = |c: &[[f32; 3]; 3]| -> [f32; 3] {
             std::array::from_fn(|k| (c[0][k] + c[1][k] + c[2][k]) * (1.0 / 3.0))
@@ -139,17 +138,75 @@ impl Bvh {
                 }
             })
             .collect();
+        let nodes = Self::build_range(&mut prims, 0);
+        let order: Vec<u32> = prims.iter().map(|p| p.id).collect();
+        drop(prims);
+        let tris: Vec<[[f32; 3]; 3]> = order.iter().map(|&t| corners[t as usize]).collect();
+        Self::assemble(nodes, tris, order)
+    }
+
+    /// The nodes over `prims` (the triangles `base..` of the leaf order), root first;
+    /// leaves index the whole leaf order, inner nodes this vector. Big ranges split
+    /// once here and build their halves in parallel (the same tree as one thread
+    /// builds: every split depends on its range alone).
+    fn build_range(prims: &mut [Prim], base: usize) -> Vec<Node> {
+        /// Ranges below this many triangles build on one thread.
+        const PARALLEL: usize = 1 << 15;
+        let n = prims.len();
+        if n < PARALLEL {
+            return Self::build_serial(prims, base);
+        }
+        let (bounds, cbounds) = Self::range_bounds(prims);
+        let mid = Self::sah_split(prims, &cbounds).unwrap_or(n / 2);
+        let (left, right) = prims.split_at_mut(mid);
+        let (mut l, mut r) = rayon::join(
+            || Self::build_range(left, base),
+            || Self::build_range(right, base + mid),
+        );
+        // Root, the two subtrees' roots side by side, then the rest of each subtree:
+        // the left's node i ≥ 1 lands at i + 2, the right's at i + l.len() + 1.
+        let shift = |sub: &mut [Node], by: u32| {
+            sub.iter_mut()
+                .filter(|nd| nd.count == 0)
+                .for_each(|nd| nd.first += by);
+        };
+        shift(&mut l, 2);
+        shift(&mut r, l.len() as u32 + 1);
+        let mut nodes = Vec::with_capacity(l.len() + r.len() + 1);
+        nodes.push(Node {
+            lo: bounds.lo,
+            first: 1,
+            hi: bounds.hi,
+            count: 0,
+        });
+        nodes.push(l[0]);
+        nodes.push(r[0]);
+        nodes.extend_from_slice(&l[1..]);
+        drop(l);
+        nodes.extend_from_slice(&r[1..]);
+        nodes
+    }
+
+    /// The box of `prims` and the box of their centroids.
+    fn range_bounds(prims: &[Prim]) -> (Aabb, Aabb) {
+        let mut bounds = Aabb::EMPTY;
+        let mut cbounds = Aabb::EMPTY;
+        for p in prims {
+            bounds.merge(&p.bounds);
+            cbounds.grow(p.centroid);
+        }
+        (bounds, cbounds)
+    }
+
+    /// [`Self::build_range`] on one thread.
+    fn build_serial(prims: &mut [Prim], base: usize) -> Vec<Node> {
+        let n = prims.len();
         let mut nodes: Vec<Node> = Vec::with_capacity(2 * n / LEAF_SIZE + 1);
         nodes.push(Node::ROOT);
         // (node index, start, end) ranges still to split.
         let mut work = vec![(0usize, 0usize, n)];
         while let Some((ni, start, end)) = work.pop() {
-            let mut bounds = Aabb::EMPTY;
-            let mut cbounds = Aabb::EMPTY;
-            for p in &prims[start..end] {
-                bounds.merge(&p.bounds);
-                cbounds.grow(p.centroid);
-            }
+            let (bounds, cbounds) = Self::range_bounds(&prims[start..end]);
             nodes[ni].lo = bounds.lo;
             nodes[ni].hi = bounds.hi;
             let count = end - start;
@@ -160,7 +217,7 @@ impl Bvh {
             };
             match split {
                 None if count <= LEAF_SIZE * 4 => {
-                    nodes[ni].first = start as u32;
+                    nodes[ni].first = (base + start) as u32;
                     nodes[ni].count = count as u32;
                 }
                 found => {
@@ -171,10 +228,7 @@ impl Bvh {
                 }
             }
         }
-        let order: Vec<u32> = prims.iter().map(|p| p.id).collect();
-        drop(prims);
-        let tris: Vec<[[f32; 3]; 3]> = order.iter().map(|&t| corners[t as usize]).collect();
-        Self::assemble(nodes, tris, order)
+        nodes
     }
 
     /// The tree from its nodes, its triangles in leaf order and their mesh ids.

@@ -278,6 +278,8 @@ struct Probe<'a> {
     target: &'a Bvh,
     hint: Option<u32>,
     acc: Acc,
+    /// The squared distance of the last point added.
+    last: f64,
 }
 
 impl Probe<'_> {
@@ -291,6 +293,7 @@ impl Probe<'_> {
             None => (f64::INFINITY, p),
         };
         let d = d2.sqrt();
+        self.last = d2;
         if d2 > self.acc.max2 {
             self.acc.max2 = d2;
             self.acc.max_at = p;
@@ -363,6 +366,8 @@ pub fn one_sided(mesh: &Mesh, target: &Bvh, options: &SamplingOptions) -> OneSid
     let points = weld.map_triangles(&mesh.triangles);
     let pos = |p: u32| f64v(mesh.positions[weld.representative[p as usize] as usize]);
 
+    let mut known: Option<Vec<(f64, u32)>> = None;
+    let mut face_max: Option<Vec<f32>> = None;
     if options.vertices {
         let mut used = vec![false; weld.point_count()];
         for t in &points {
@@ -373,19 +378,36 @@ pub fn one_sided(mesh: &Mesh, target: &Bvh, options: &SamplingOptions) -> OneSid
         let ids: Vec<u32> = (0..weld.point_count() as u32)
             .filter(|&p| used[p as usize])
             .collect();
-        let parts: Vec<Acc> = ids
+        // With certification, each point's distance and nearest triangle are kept
+        // for it (its regions' corners).
+        let parts: Vec<(Acc, Vec<(f64, u32)>)> = ids
             .par_chunks(CHUNK)
             .map(|c| {
                 let mut probe = Probe {
                     target,
                     hint: None,
                     acc: Acc::ZERO,
+                    last: 0.0,
                 };
-                c.iter().for_each(|&p| probe.add(pos(p)));
-                probe.acc
+                let mut hits = Vec::with_capacity(if options.certify { c.len() } else { 0 });
+                for &p in c {
+                    probe.add(pos(p));
+                    if options.certify {
+                        let d = probe.last.sqrt();
+                        hits.push((d, probe.hint.unwrap_or(u32::MAX)));
+                    }
+                }
+                (probe.acc, hits)
             })
             .collect();
-        parts.iter().for_each(|a| total.merge(a));
+        if options.certify {
+            let mut all = vec![(0.0, u32::MAX); weld.point_count()];
+            for (&p, h) in ids.iter().zip(parts.iter().flat_map(|(_, h)| h)) {
+                all[p as usize] = *h;
+            }
+            known = Some(all);
+        }
+        parts.iter().for_each(|(a, _)| total.merge(a));
     }
 
     if options.edges && n > 0 {
@@ -409,6 +431,7 @@ pub fn one_sided(mesh: &Mesh, target: &Bvh, options: &SamplingOptions) -> OneSid
                     target,
                     hint: None,
                     acc: Acc::ZERO,
+                    last: 0.0,
                 };
                 for (e, &c) in es.iter().zip(cs) {
                     let (a, b) = (pos(e[0]), pos(e[1]));
@@ -434,22 +457,24 @@ pub fn one_sided(mesh: &Mesh, target: &Bvh, options: &SamplingOptions) -> OneSid
             .collect();
         let counts = allot(&areas, n);
         let idx: Vec<u32> = (0..points.len() as u32).collect();
-        let parts: Vec<Acc> = idx
+        // With certification, each triangle's largest sample distance is kept for
+        // it (where to refine first).
+        let parts: Vec<(Acc, Vec<f32>)> = idx
             .par_chunks(CHUNK)
             .map(|ts| {
                 let mut probe = Probe {
                     target,
                     hint: None,
                     acc: Acc::ZERO,
+                    last: 0.0,
                 };
+                let mut highs = Vec::with_capacity(if options.certify { ts.len() } else { 0 });
                 for &t in ts {
                     let c = counts[t as usize];
-                    if c == 0 {
-                        continue;
-                    }
                     let tri = points[t as usize];
                     let (a, b, cc) = (pos(tri[0]), pos(tri[1]), pos(tri[2]));
                     let mut rng = Pcg::new(options.seed, u64::from(t));
+                    let mut high = 0.0f64;
                     for _ in 0..c {
                         let (mut u, mut v) = (rng.unit(), rng.unit());
                         if u + v > 1.0 {
@@ -459,12 +484,19 @@ pub fn one_sided(mesh: &Mesh, target: &Bvh, options: &SamplingOptions) -> OneSid
                         probe.add(std::array::from_fn(|i| {
                             a[i] + (b[i] - a[i]) * u + (cc[i] - a[i]) * v
                         }));
+                        high = high.max(probe.last);
+                    }
+                    if options.certify {
+                        highs.push(high.sqrt() as f32);
                     }
                 }
-                probe.acc
+                (probe.acc, highs)
             })
             .collect();
-        parts.iter().for_each(|a| total.merge(a));
+        if options.certify {
+            face_max = Some(parts.iter().flat_map(|(_, h)| h).copied().collect());
+        }
+        parts.iter().for_each(|(a, _)| total.merge(a));
     }
 
     if total.n == 0 {
@@ -495,6 +527,10 @@ pub fn one_sided(mesh: &Mesh, target: &Bvh, options: &SamplingOptions) -> OneSid
             target,
             out.max,
             (out.max_at, out.max_closest),
+            &certify::Known {
+                points: known.as_deref(),
+                faces: face_max.as_deref(),
+            },
             (n as u64).max(certify::MIN_BUDGET),
         );
         out.max = c.lower;

@@ -261,3 +261,53 @@ fn certified_maximum_against_an_empty_mesh_is_unbounded() {
     assert_eq!(d.a_to_b.max_upper, Some(f64::INFINITY));
     assert_eq!(d.b_to_a.max_upper, Some(0.0));
 }
+
+/// A wavy height field against the same field on a slightly different grid: the
+/// distances (about 1e-4) are far below the triangles' size, so most regions straddle
+/// several nearest triangles and the refinement cannot settle them with its budget.
+/// It stops early, and its interval still holds a dense reference.
+#[test]
+fn near_copies_stop_early_with_a_true_interval() {
+    let wave = |x: f64, y: f64| 0.05 * (6.0 * x).sin() * (5.0 * y).cos();
+    let a = generate::grid(120, 120, wave);
+    let b = generate::grid(113, 127, wave);
+    let target = Bvh::build(&b.positions, &b.triangles);
+    let dense = one_sided(
+        &a,
+        &target,
+        &SamplingOptions {
+            certify: false,
+            ..opts(2_000_000)
+        },
+    );
+    let sampled = one_sided(
+        &a,
+        &target,
+        &SamplingOptions {
+            certify: false,
+            ..opts(20_000)
+        },
+    );
+    let c = one_sided(&a, &target, &opts(20_000));
+    let upper = c.max_upper.expect("certified");
+    // The refinement only raises the sampled maximum, and never above its bound.
+    assert!(c.max >= sampled.max && c.max <= upper, "{c:?}");
+    assert!(upper >= dense.max, "{upper} below the dense {}", dense.max);
+
+    // Straight from `certify`: the regions left outnumber what the budget could
+    // split, so it stops after an eighth of the budget, not at its end.
+    let points: Vec<V3> = a.positions.iter().map(|p| f64v(*p)).collect();
+    let budget = 200_000;
+    let r = certify::certify(
+        &points,
+        &a.triangles,
+        &target,
+        0.0,
+        ([0.0; 3], [0.0; 3]),
+        &certify::Known::default(),
+        budget,
+    );
+    let first = (points.len() + a.triangles.len()) as u64;
+    assert!(r.queries < first + budget / 2, "{r:?}");
+    assert!(r.upper >= dense.max && r.lower <= r.upper, "{r:?}");
+}

@@ -138,7 +138,7 @@ impl Bvh {
                 }
             })
             .collect();
-        let nodes = Self::build_range(&mut prims, 0);
+        let nodes = Self::build_range(&mut prims, 0, 0);
         let order: Vec<u32> = prims.iter().map(|p| p.id).collect();
         drop(prims);
         let tris: Vec<[[f32; 3]; 3]> = order.iter().map(|&t| corners[t as usize]).collect();
@@ -149,19 +149,22 @@ impl Bvh {
     /// leaves index the whole leaf order, inner nodes this vector. Big ranges split
     /// once here and build their halves in parallel (the same tree as one thread
     /// builds: every split depends on its range alone).
-    fn build_range(prims: &mut [Prim], base: usize) -> Vec<Node> {
+    fn build_range(prims: &mut [Prim], base: usize, depth: u32) -> Vec<Node> {
         /// Ranges below this many triangles build on one thread.
         const PARALLEL: usize = 1 << 15;
+        /// Levels split this way at most (2⁶ ranges: enough threads; deeper, a very
+        /// uneven split would recurse instead of using the serial build's stack).
+        const LEVELS: u32 = 6;
         let n = prims.len();
-        if n < PARALLEL {
+        if n < PARALLEL || depth >= LEVELS {
             return Self::build_serial(prims, base);
         }
         let (bounds, cbounds) = Self::range_bounds(prims);
         let mid = Self::sah_split(prims, &cbounds).unwrap_or(n / 2);
         let (left, right) = prims.split_at_mut(mid);
         let (mut l, mut r) = rayon::join(
-            || Self::build_range(left, base),
-            || Self::build_range(right, base + mid),
+            || Self::build_range(left, base, depth + 1),
+            || Self::build_range(right, base + mid, depth + 1),
         );
         // Root, the two subtrees' roots side by side, then the rest of each subtree:
         // the left's node i ≥ 1 lands at i + 2, the right's at i + l.len() + 1.
@@ -752,6 +755,54 @@ mod tests {
             triangles.push([3 * t, 3 * t + 1, 3 * t + 2]);
         }
         (positions, triangles, s)
+    }
+
+    /// The parallel build gives the serial build's tree: the same nodes in the same
+    /// order (boxes bit for bit, children, leaves) and the same leaf order, on a soup
+    /// big enough to split twice in parallel.
+    #[test]
+    fn parallel_build_is_the_serial_tree() {
+        let (positions, triangles, _) = random_soup(7, 150_000);
+        let prims = |ts: &[[u32; 3]]| -> Vec<Prim> {
+            ts.iter()
+                .enumerate()
+                .map(|(t, tri)| {
+                    let c = tri.map(|i| positions[i as usize]);
+                    let mut b = Aabb::EMPTY;
+                    c.iter().for_each(|&p| b.grow(p));
+                    Prim {
+                        centroid: std::array::from_fn(|k| (c[0][k] + c[1][k] + c[2][k]) / 3.0),
+                        bounds: b,
+                        id: t as u32,
+                    }
+                })
+                .collect()
+        };
+        let (mut a, mut b) = (prims(&triangles), prims(&triangles));
+        let par = Bvh::build_range(&mut a, 0, 0);
+        let ser = Bvh::build_serial(&mut b, 0);
+        assert!(par.len() > 3 && par[0].count == 0);
+        // The serial build numbers nodes depth first in another order: compare the
+        // trees by walking both from their roots.
+        let mut stack = vec![(0usize, 0usize)];
+        let mut seen = 0;
+        while let Some((i, j)) = stack.pop() {
+            let (x, y) = (par[i], ser[j]);
+            seen += 1;
+            assert_eq!(x.lo.map(f32::to_bits), y.lo.map(f32::to_bits));
+            assert_eq!(x.hi.map(f32::to_bits), y.hi.map(f32::to_bits));
+            assert_eq!(x.count, y.count);
+            if x.count == 0 {
+                let (l, r) = (x.first as usize, y.first as usize);
+                stack.push((l, r));
+                stack.push((l + 1, r + 1));
+            } else {
+                assert_eq!(x.first, y.first);
+            }
+        }
+        assert_eq!(seen, par.len());
+        assert_eq!(par.len(), ser.len());
+        assert!(a.iter().zip(&b).all(|(p, q)| p.id == q.id));
     }
 
     /// The box query finds exactly the triangles whose boxes overlap the query box

@@ -27,16 +27,18 @@
 //!   where one triangle alone leaves a bound of the region's width times the bend, so
 //!   that halving it takes as many splits as the width is above the tolerance).
 //!
-//! The first pass queries no point of its own: the corners' distances are the
-//! vertex samples' (reused when the caller passes them), and only the regions that
-//! the corners do not settle query their centroid. A split queries its three edge
+//! The first pass takes the corners' distances from the vertex samples when the
+//! caller passes them (else it queries every point once); only the regions that
+//! their corners do not settle query their centroid. A split queries its three edge
 //! midpoints.
 //!
 //! The bound reported is the largest bound of any region left unsplit, so the true
-//! maximum lies in `[max_lower, max_upper]`. When far more regions stay above the
-//! tolerance than the budget could split once (a mesh against a near copy of itself,
-//! at distances far below its triangles' size), refinement stops early and reports
-//! the wider interval it has.
+//! maximum lies in `[max_lower, max_upper]`. Refinement stops early when the
+//! interval is not closing: when, over an eighth of the budget, the worst bound came
+//! less than a quarter closer to the tolerance and the open regions did not become
+//! fewer (a mesh against a near copy of itself, at distances far below its
+//! triangles' size; or a coarse mesh against a fine one). It reports the wider
+//! interval it has.
 
 use super::bvh::Bvh;
 use super::triangle::{self, V3};
@@ -58,12 +60,18 @@ const BATCH: usize = 256;
 /// Closest-point queries of one split (its three edge midpoints).
 const SPLIT_QUERIES: u64 = 3;
 
+/// What a split costs against the budget, in queries: its three queries and its four
+/// children's bounds (the two-triangle bounds cost about as much as the four more
+/// queries a split made when each child queried its centroid).
+const SPLIT_COST: u64 = 7;
+
 /// Closest-point queries the refinement may always spend, however few the samples
 /// (a few milliseconds): small sample counts still get a certified maximum.
 pub const MIN_BUDGET: u64 = 1 << 16;
 
 /// What the sampling already found, for [`certify`] to start from. Every distance is
-/// in mesh units and not above the sampled maximum.
+/// in mesh units and not above the sampled maximum. The points' distances must be
+/// exact (the bounds rest on them); the faces' only order the refinement.
 #[derive(Debug, Clone, Copy, Default)]
 pub struct Known<'a> {
     /// For every point (indexed as `points`), its distance to the target and the
@@ -87,15 +95,16 @@ pub struct Certified {
     pub queries: u64,
 }
 
-/// A triangular region of the sampled surface with exact distances at its corners and
-/// centroid, and the nearest triangles of the other surface found for them.
+/// A triangular region of the sampled surface with exact distances at its corners,
+/// and the nearest triangles of the other surface found for them.
 #[derive(Clone, Copy)]
 struct Region {
     v: [V3; 3],
     d: [f64; 3],
     near: [u32; 3],
     upper: f64,
-    /// The largest exact distance at its corners and centroid.
+    /// The largest distance found on it: at its corners, its centroid when queried,
+    /// and (for a triangle of the first pass) its face samples.
     hi: f64,
 }
 
@@ -265,8 +274,14 @@ fn farthest(v: &[V3; 3], t: &[V3; 3]) -> f64 {
 }
 
 /// Squared distance from `p` to triangle `t`.
+/// A NaN (which `f64::max` would drop, tightening a bound) counts as infinite.
 fn dist2_to(p: V3, t: &[V3; 3]) -> f64 {
-    triangle::dist2(p, triangle::closest_point(p, t[0], t[1], t[2]).0)
+    let d = triangle::dist2(p, triangle::closest_point(p, t[0], t[1], t[2]).0);
+    if d.is_nan() {
+        f64::INFINITY
+    } else {
+        d
+    }
 }
 
 fn unit(a: V3) -> Option<V3> {
@@ -293,15 +308,17 @@ fn normal(t: &[V3; 3]) -> Option<V3> {
 /// between their centroids.
 fn pair_bound(v: &[V3; 3], ta: &[V3; 3], tb: &[V3; 3]) -> f64 {
     let mut best = f64::INFINITY;
-    let shared: Vec<V3> = ta.iter().filter(|p| tb.contains(p)).copied().collect();
+    let mut common = [[0.0; 3]; 3];
+    let mut n = 0;
+    for p in ta.iter().filter(|p| tb.contains(p)) {
+        common[n] = *p;
+        n += 1;
+    }
+    let shared = &common[..n];
     let third = |t: &[V3; 3]| t.iter().find(|p| !shared.contains(p)).copied();
-    if let ([p, q], Some(ra), Some(rb), Some(na), Some(nb)) = (
-        shared.as_slice(),
-        third(ta),
-        third(tb),
-        normal(ta),
-        normal(tb),
-    ) {
+    if let ([p, q], Some(ra), Some(rb), Some(na), Some(nb)) =
+        (shared, third(ta), third(tb), normal(ta), normal(tb))
+    {
         let e = triangle::sub(*q, *p);
         for s in [1.0, -1.0] {
             let m = triangle::cross(e, std::array::from_fn(|k| na[k] + s * nb[k]));
@@ -316,7 +333,7 @@ fn pair_bound(v: &[V3; 3], ta: &[V3; 3], tb: &[V3; 3]) -> f64 {
         }
     }
     let (ga, gb) = (centroid(ta), centroid(tb));
-    if let ([o], Some(na), Some(nb)) = (shared.as_slice(), normal(ta), normal(tb)) {
+    if let ([o], Some(na), Some(nb)) = (shared, normal(ta), normal(tb)) {
         // A shared corner: the plane through it and the mean normal that bisects the
         // angle between the two triangles' directions (around a vertex of a fan).
         for s in [1.0, -1.0] {
@@ -389,8 +406,8 @@ fn split(target: &Bvh, r: &Region, bar: f64) -> ([Region; 4], Hit, u64) {
 /// Certifies the maximum distance from the triangles `tris` (indices into `points`)
 /// to `target`, starting from the best sample so far (`lower`, found at `lower_at`).
 /// `known` carries what the sampling found (see [`Known`]); without its points' hits
-/// every point is queried once more. Spends at
-/// most `budget` closest-point queries on splitting; when the budget runs out,
+/// every point is queried once more. Spends at most `budget` (in closest-point
+/// queries, a split counting as seven) on splitting; when the budget runs out,
 /// `upper` is the largest bound left, so the interval is still true, only wider.
 #[must_use]
 pub fn certify(
@@ -566,7 +583,8 @@ pub fn certify(
                 batch.par_iter().map(|r| split(target, r, bar)).collect();
             for (children, h, q) in out {
                 best = better(best, h);
-                spent += q;
+                spent += SPLIT_COST;
+                queries += q;
                 climb.extend(children.into_iter().map(ByHigh));
             }
         }
@@ -586,18 +604,21 @@ pub fn certify(
     // Bound first: split the worst regions in batches (in parallel, in a fixed order)
     // until every bound is within the tolerance of the best distance found, or the
     // budget ends, or the interval is not closing: at every eighth of the budget
-    // (after the first), the regions left must be fewer than at the last one and
-    // fewer than the splits the budget still pays for. Otherwise the rest of the
-    // budget would only narrow the interval a little (a mesh against a near copy of
-    // itself, where every region straddles several nearest triangles).
+    // (after the first), the worst bound must have come at least a quarter closer to
+    // the tolerance since the last check, or the open regions must be fewer than then
+    // and than the splits the budget still pays for. Otherwise the rest of the budget
+    // would only narrow the interval a little (a mesh against a near copy of itself,
+    // where most regions straddle several nearest triangles).
     let step = (budget / 8).max(1);
-    let (mut check, mut open) = (spent + step, usize::MAX);
+    let (mut check, mut open, mut gap) = (spent + step, usize::MAX, f64::INFINITY);
     while heap.peek().is_some_and(|r| r.upper > threshold(best.d)) && spent < budget {
         if spent >= check {
-            if heap.len() >= open || heap.len() as u64 * SPLIT_QUERIES > budget - spent {
+            let now = heap.peek().map_or(0.0, |r| r.upper - threshold(best.d));
+            let fewer = heap.len() < open && heap.len() as u64 * SPLIT_COST <= budget - spent;
+            if now > 0.75 * gap && !fewer {
                 break;
             }
-            (check, open) = (spent + step, heap.len());
+            (check, open, gap) = (spent + step, heap.len(), now);
         }
         let mut batch = Vec::with_capacity(BATCH);
         let bar = threshold(best.d);
@@ -615,7 +636,8 @@ pub fn certify(
             batch.par_iter().map(|r| split(target, r, bar)).collect();
         for (_, h, q) in &done {
             best = better(best, *h);
-            spent += q;
+            spent += SPLIT_COST;
+            queries += q;
         }
         for (children, _, _) in done {
             for r in children {
@@ -627,7 +649,6 @@ pub fn certify(
             }
         }
     }
-    queries += spent;
     // Regions left (budget spent, or within the tolerance now that the best rose).
     let left = heap.iter().fold(0.0f64, |m, r| m.max(r.upper));
     Certified {

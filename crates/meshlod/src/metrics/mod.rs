@@ -51,7 +51,8 @@ pub struct SamplingOptions {
     /// Certify the maximum ([`certify`]): refine around the largest distances until the
     /// maximum is within [`certify::TOLERANCE`] of an upper bound, spending at most
     /// about as many closest-point queries again as the sampling (at least
-    /// [`certify::MIN_BUDGET`]). Default: true.
+    /// [`certify::MIN_BUDGET`]), and less when the interval stops closing (the
+    /// interval is then wider, still true). Default: true.
     pub certify: bool,
 }
 
@@ -280,6 +281,8 @@ struct Probe<'a> {
     acc: Acc,
     /// The squared distance of the last point added.
     last: f64,
+    /// The nearest triangle of the last point added (`u32::MAX` if none).
+    last_tri: u32,
 }
 
 impl Probe<'_> {
@@ -288,9 +291,13 @@ impl Probe<'_> {
         let (d2, q) = match self.target.closest(p, self.hint) {
             Some(c) => {
                 self.hint = Some(c.triangle);
+                self.last_tri = c.triangle;
                 (c.dist2, c.point)
             }
-            None => (f64::INFINITY, p),
+            None => {
+                self.last_tri = u32::MAX;
+                (f64::INFINITY, p)
+            }
         };
         let d = d2.sqrt();
         self.last = d2;
@@ -388,13 +395,14 @@ pub fn one_sided(mesh: &Mesh, target: &Bvh, options: &SamplingOptions) -> OneSid
                     hint: None,
                     acc: Acc::ZERO,
                     last: 0.0,
+                    last_tri: u32::MAX,
                 };
                 let mut hits = Vec::with_capacity(if options.certify { c.len() } else { 0 });
                 for &p in c {
                     probe.add(pos(p));
                     if options.certify {
                         let d = probe.last.sqrt();
-                        hits.push((d, probe.hint.unwrap_or(u32::MAX)));
+                        hits.push((d, probe.last_tri));
                     }
                 }
                 (probe.acc, hits)
@@ -432,6 +440,7 @@ pub fn one_sided(mesh: &Mesh, target: &Bvh, options: &SamplingOptions) -> OneSid
                     hint: None,
                     acc: Acc::ZERO,
                     last: 0.0,
+                    last_tri: u32::MAX,
                 };
                 for (e, &c) in es.iter().zip(cs) {
                     let (a, b) = (pos(e[0]), pos(e[1]));
@@ -467,6 +476,7 @@ pub fn one_sided(mesh: &Mesh, target: &Bvh, options: &SamplingOptions) -> OneSid
                     hint: None,
                     acc: Acc::ZERO,
                     last: 0.0,
+                    last_tri: u32::MAX,
                 };
                 let mut highs = Vec::with_capacity(if options.certify { ts.len() } else { 0 });
                 for &t in ts {

@@ -294,8 +294,8 @@ fn near_copies_stop_early_with_a_true_interval() {
     assert!(c.max >= sampled.max && c.max <= upper, "{c:?}");
     assert!(upper >= dense.max, "{upper} below the dense {}", dense.max);
 
-    // Straight from `certify`: the regions left outnumber what the budget could
-    // split, so it stops after an eighth of the budget, not at its end.
+    // Straight from `certify`: the interval does not close, so it stops at one of
+    // the checks, well before the end of its budget.
     let points: Vec<V3> = a.positions.iter().map(|p| f64v(*p)).collect();
     let budget = 200_000;
     let r = certify::certify(

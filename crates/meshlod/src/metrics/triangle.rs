@@ -72,7 +72,9 @@ pub fn closest_point(p: V3, a: V3, b: V3, c: V3) -> (V3, Region) {
         return (b, Region::Vertex(1));
     }
     let vc = d1 * d4 - d3 * d2;
-    if vc <= 0.0 && d1 >= 0.0 && d3 <= 0.0 {
+    // Each edge's denominator is its squared length: zero only when two corners
+    // coincide, which the degenerate path below handles (0/0 would give NaN).
+    if vc <= 0.0 && d1 >= 0.0 && d3 <= 0.0 && d1 - d3 > 0.0 {
         let t = d1 / (d1 - d3);
         return (add_scaled(a, t, ab), Region::Edge(0));
     }
@@ -83,12 +85,12 @@ pub fn closest_point(p: V3, a: V3, b: V3, c: V3) -> (V3, Region) {
         return (c, Region::Vertex(2));
     }
     let vb = d5 * d2 - d1 * d6;
-    if vb <= 0.0 && d2 >= 0.0 && d6 <= 0.0 {
+    if vb <= 0.0 && d2 >= 0.0 && d6 <= 0.0 && d2 - d6 > 0.0 {
         let t = d2 / (d2 - d6);
         return (add_scaled(a, t, ac), Region::Edge(2));
     }
     let va = d3 * d6 - d5 * d4;
-    if va <= 0.0 && (d4 - d3) >= 0.0 && (d5 - d6) >= 0.0 {
+    if va <= 0.0 && (d4 - d3) >= 0.0 && (d5 - d6) >= 0.0 && (d4 - d3) + (d5 - d6) > 0.0 {
         let t = (d4 - d3) / ((d4 - d3) + (d5 - d6));
         return (add_scaled(b, t, sub(c, b)), Region::Edge(1));
     }
@@ -204,6 +206,11 @@ mod tests {
             (A, B, C),
             ([0.3, -1.0, 2.0], [1.5, 0.7, -0.4], [-0.8, 0.2, 0.9]),
             ([0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [2.0, 0.0, 0.0]), // degenerate
+            // Two corners coinciding, each pair in turn (an edge of zero length:
+            // its parameter would be 0/0).
+            ([0.5, 0.5, 0.0], [0.5, 0.5, 0.0], [2.0, 1.0, 0.5]),
+            ([0.5, 0.5, 0.0], [2.0, 1.0, 0.5], [0.5, 0.5, 0.0]),
+            ([2.0, 1.0, 0.5], [0.5, 0.5, 0.0], [0.5, 0.5, 0.0]),
         ];
         let mut s = 12345u64;
         let mut rnd = move || {

@@ -316,9 +316,8 @@ fn pair_bound(v: &[V3; 3], ta: &[V3; 3], tb: &[V3; 3]) -> f64 {
     }
     let shared = &common[..n];
     let third = |t: &[V3; 3]| t.iter().find(|p| !shared.contains(p)).copied();
-    if let ([p, q], Some(ra), Some(rb), Some(na), Some(nb)) =
-        (shared, third(ta), third(tb), normal(ta), normal(tb))
-    {
+    let normals = normal(ta).zip(normal(tb));
+    if let ([p, q], Some(ra), Some(rb), Some((na, nb))) = (shared, third(ta), third(tb), normals) {
         let e = triangle::sub(*q, *p);
         for s in [1.0, -1.0] {
             let m = triangle::cross(e, std::array::from_fn(|k| na[k] + s * nb[k]));
@@ -333,7 +332,7 @@ fn pair_bound(v: &[V3; 3], ta: &[V3; 3], tb: &[V3; 3]) -> f64 {
         }
     }
     let (ga, gb) = (centroid(ta), centroid(tb));
-    if let ([o], Some(na), Some(nb)) = (shared, normal(ta), normal(tb)) {
+    if let ([o], Some((na, nb))) = (shared, normals) {
         // A shared corner: the plane through it and the mean normal that bisects the
         // angle between the two triangles' directions (around a vertex of a fan).
         for s in [1.0, -1.0] {
